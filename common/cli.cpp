@@ -1,0 +1,61 @@
+#include "common/cli.hpp"
+
+#include <cstdio>
+#include <exception>
+
+#include "common/error.hpp"
+#include "common/log.hpp"
+#include "common/parallel.hpp"
+#include "common/version.hpp"
+
+namespace mat {
+
+void add_common_options(CLI::App& app, CommonOptions& options)
+{
+    app.set_version_flag("--version", std::string(app.get_name()) + " " + version_string);
+    app.add_option(
+           "--log-level", options.log_level, std::string("Logging level: ") + log_level_names())
+        ->capture_default_str();
+    app.add_option("--threads", options.threads, "Worker threads (0: all cores)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 4096));
+}
+
+void apply_common_options(const CommonOptions& options)
+{
+    set_log_level(options.log_level);
+    set_threads(options.threads);
+}
+
+int run_cli(CLI::App& app, int argc, char** argv, const std::function<void()>& body)
+{
+    const std::string tool = app.get_name();
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "%s: usage error: %s\nRun '%s --help' for the options.\n",
+            tool.c_str(), e.what(), tool.c_str());
+        return 2;
+    }
+    try {
+        body();
+    } catch (const Error& e) {
+        std::fprintf(stderr, "%s: error: %s\n", tool.c_str(), e.what());
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "%s: error: out of memory\n", tool.c_str());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "%s: error: %s\n", tool.c_str(), e.what());
+        return 1;
+    }
+    return 0;
+}
+
+} // namespace mat

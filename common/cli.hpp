@@ -1,0 +1,28 @@
+#pragma once
+// What every command-line tool shares: --version, --log-level, --threads, and a main() wrapper
+// that turns errors into one line on stderr and the exit codes 0 ok, 1 failure, 2 usage.
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace mat {
+
+struct CommonOptions {
+    std::string log_level = "info";
+    int threads = 0; ///< 0: all cores
+};
+
+/// Adds --version, --log-level and --threads to app, bound to options.
+void add_common_options(CLI::App& app, CommonOptions& options);
+
+/// Applies the common options (logger level, thread count). Throws mat::Error if invalid.
+void apply_common_options(const CommonOptions& options);
+
+/// Parses argv into app, then runs body. Returns the process exit code:
+/// 0 on success, 2 on a usage error (unknown option, missing argument), 1 on any other error.
+/// Errors print as one line "TOOL: error: MESSAGE" on stderr.
+int run_cli(CLI::App& app, int argc, char** argv, const std::function<void()>& body);
+
+} // namespace mat
