@@ -32,6 +32,7 @@ int run_cli(CLI::App& app, int argc, char** argv, const std::function<void()>& b
     const std::string tool = app.get_name();
     try {
         app.parse(argc, argv);
+        body();
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
@@ -39,12 +40,10 @@ int run_cli(CLI::App& app, int argc, char** argv, const std::function<void()>& b
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
+        // Also thrown by a body that finds the arguments incomplete.
         std::fprintf(stderr, "%s: usage error: %s\nRun '%s --help' for the options.\n",
             tool.c_str(), e.what(), tool.c_str());
         return 2;
-    }
-    try {
-        body();
     } catch (const Error& e) {
         std::fprintf(stderr, "%s: error: %s\n", tool.c_str(), e.what());
         return 1;

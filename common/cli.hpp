@@ -21,7 +21,8 @@ void add_common_options(CLI::App& app, CommonOptions& options);
 void apply_common_options(const CommonOptions& options);
 
 /// Parses argv into app, then runs body. Returns the process exit code:
-/// 0 on success, 2 on a usage error (unknown option, missing argument), 1 on any other error.
+/// 0 on success, 2 on a usage error (unknown option, missing argument; a body may throw a
+/// CLI::ParseError for arguments it finds incomplete), 1 on any other error.
 /// Errors print as one line "TOOL: error: MESSAGE" on stderr.
 int run_cli(CLI::App& app, int argc, char** argv, const std::function<void()>& body);
 

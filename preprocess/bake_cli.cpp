@@ -2,17 +2,37 @@
 
 #include "common/cli.hpp"
 #include "common/log.hpp"
+#include "preprocess/cli/bake_command.hpp"
+#include "preprocess/cli/check_command.hpp"
 
 namespace mat {
 
 int bake_main(int argc, char** argv)
 {
-    CLI::App app { "mat-bake: turn a closed surface and its medial mesh into one HDF5 bake",
+    CLI::App app { "mat-bake: turn a closed surface and its medial mesh into one HDF5 bake.\n"
+                   "  mat-bake SURFACE --medial FILE.ma -o OUT.h5 [options]\n"
+                   "  mat-bake inspect OUT.h5 | check SURFACE [--medial FILE.ma]",
         "mat-bake" };
     CommonOptions common;
     add_common_options(app, common);
     app.require_subcommand(0, 1);
-    return run_cli(app, argc, argv, [&] { apply_common_options(common); });
+
+    BakeOptions bake_options;
+    add_bake_options(app, bake_options);
+    CheckOptions check_options;
+    CLI::App* check = add_check_command(app, check_options);
+    std::string inspect_path;
+    CLI::App* inspect = add_inspect_command(app, inspect_path);
+
+    return run_cli(app, argc, argv, [&] {
+        apply_common_options(common);
+        if (check->parsed())
+            run_check(check_options);
+        else if (inspect->parsed())
+            run_inspect(inspect_path);
+        else
+            run_bake_command(bake_options);
+    });
 }
 
 } // namespace mat

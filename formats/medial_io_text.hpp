@@ -1,0 +1,58 @@
+#pragma once
+// Text-reading helpers shared by the medial (.ma) and tet mesh (.mesh, .node/.ele) readers and
+// writers: a line cursor that strips '#' comments, strict number parsing, and whole-file I/O.
+// Internal to formats/: nothing outside the readers should need it.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace mat::text_io {
+
+/// Walks the lines of a text, skipping blank and comment-only lines. A '#' starts a comment
+/// that runs to the end of its line; '\r' counts as whitespace, so CRLF files read the same.
+class LineReader {
+public:
+    /// `text` must outlive the reader: tokens are views into it.
+    explicit LineReader(std::string_view text);
+
+    /// Moves to the next line that has at least one token. Returns false at the end of the text,
+    /// after which line_number() is one past the last line.
+    bool next();
+
+    /// The 1-based number of the current line.
+    int line_number() const { return m_line_number; }
+    /// Whitespace-separated tokens of the current line (comments removed).
+    const std::vector<std::string_view>& tokens() const { return m_tokens; }
+
+private:
+    std::string_view m_text;
+    std::size_t m_pos = 0;
+    int m_line_number = 0;
+    int m_next_line_number = 1;
+    std::vector<std::string_view> m_tokens;
+};
+
+/// Parses a whole token as a decimal integer (optional sign). False if anything is left over,
+/// the token is empty or the value overflows.
+bool parse_integer(std::string_view token, std::int64_t& value);
+
+/// Parses a whole token as a floating-point number (optional sign, decimal or exponent form;
+/// "inf"/"nan" parse and are left for the caller to reject as non-finite). False if anything
+/// is left over or the token is empty. A value beyond the double range gives +-inf (overflow)
+/// or 0 / a subnormal (underflow).
+bool parse_real(std::string_view token, double& value);
+
+/// A token quoted for an error message: 'token', cut to a readable length, control characters
+/// and non-ASCII bytes escaped as \xNN so that the message stays one printable line.
+std::string quote(std::string_view token);
+
+/// The whole content of a file. Throws mat::Error naming the path if it cannot be read.
+std::string read_file(const std::string& path);
+
+/// Writes `text` to `path` (a temporary path of an AtomicFile). Throws mat::Error naming
+/// `target` on any I/O failure.
+void write_file(const std::string& path, std::string_view text, const std::string& target);
+
+} // namespace mat::text_io

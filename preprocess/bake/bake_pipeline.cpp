@@ -1,0 +1,339 @@
+#include "preprocess/bake/bake_pipeline.hpp"
+
+#include <random>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "common/error.hpp"
+#include "common/log.hpp"
+#include "common/progress.hpp"
+#include "formats/bake_io.hpp"
+#include "formats/medial_io.hpp"
+#include "formats/surface_io.hpp"
+#include "formats/surface_validation.hpp"
+#include "preprocess/basis/handle_basis.hpp"
+#include "preprocess/collision/bound_data.hpp"
+#include "preprocess/embedding/tet_embedding.hpp"
+#include "preprocess/medial/medial_fit.hpp"
+#include "preprocess/meshing/cgal_mesh3.hpp"
+#include "preprocess/meshing/tet_quality.hpp"
+#include "preprocess/pd/pd_operators.hpp"
+#include "preprocess/pd/reduced_operators.hpp"
+#include "preprocess/weights/handle_regions.hpp"
+#include "preprocess/weights/harmonic_weights.hpp"
+
+namespace mat {
+
+Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, Index num_handles)
+{
+    Eigen::Matrix<bool, Eigen::Dynamic, 1> flags
+        = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(num_handles, text == "all");
+    if (text == "all" || text == "none")
+        return flags;
+    std::stringstream stream(text);
+    std::string item;
+    while (std::getline(stream, item, ',')) {
+        std::size_t used = 0;
+        long value = -1;
+        try {
+            value = std::stol(item, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != item.size() || item.empty())
+            throw_error("--quadratic: '{}' is not a handle index (expected all, none or a list "
+                        "like 0,4,7)",
+                item);
+        if (value < 0 || value >= num_handles)
+            throw_error("--quadratic: handle {} does not exist (the medial mesh has {} spheres)",
+                value, num_handles);
+        flags(value) = true;
+    }
+    return flags;
+}
+
+namespace {
+
+    // A stage: a progress line on a terminal, a log line, and a row of the report.
+    template <typename Body> auto stage(BakeReport& report, const char* name, Body&& body)
+    {
+        Timer timer;
+        ProgressBar bar(name, 1);
+        if constexpr (std::is_void_v<decltype(body())>) {
+            body();
+            bar.advance();
+            bar.finish();
+            report.stages.add(name, timer.seconds());
+            logger().debug("{}: {:.3f} s", name, timer.seconds());
+        } else {
+            auto result = body();
+            bar.advance();
+            bar.finish();
+            report.stages.add(name, timer.seconds());
+            logger().debug("{}: {:.3f} s", name, timer.seconds());
+            return result;
+        }
+    }
+
+    // Largest relative error of B reproducing random affine fields at every node.
+    double linear_precision_error(const HandleBasis& basis, const Eigen::Ref<const MatX3>& nodes)
+    {
+        std::mt19937 rng(12345);
+        std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+        double worst = 0.0;
+        for (int trial = 0; trial < 3; ++trial) {
+            Mat3 a;
+            Vec3 t;
+            for (int i = 0; i < 3; ++i) {
+                t(i) = uniform(rng);
+                for (int j = 0; j < 3; ++j)
+                    a(i, j) = uniform(rng);
+            }
+            const MatX3 q = affine_coefficients(basis, a, t);
+            const MatX3 u = basis.basis * q;
+            const MatX3 expected = (nodes * a.transpose()).rowwise() + t.transpose();
+            worst = std::max(worst,
+                (u - expected).cwiseAbs().maxCoeff()
+                    / std::max(1e-300, expected.cwiseAbs().maxCoeff()));
+        }
+        return worst;
+    }
+
+    // Largest relative error of B reproducing a random quadratic field, over the nodes whose every
+    // weighted handle is quadratic (-1 if there is none). Expanding x = c_j + s_j y, handle j's
+    // coefficients of u_d(x) = x^T H_d x + (A x)_d + t_d are: constant c^T H_d c + (A c)_d + t_d,
+    // linear s (2 H_d c + A_d), and s^2 times (H_d,11, H_d,22, H_d,33, 2 H_d,12, 2 H_d,23, 2
+    // H_d,13).
+    double quadratic_precision_error(const HandleBasis& basis, const SparseRowMatrix& weights,
+        const Eigen::Ref<const MatX3>& nodes)
+    {
+        std::mt19937 rng(777);
+        std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+        std::array<Mat3, 3> h;
+        for (Mat3& m : h) {
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    m(i, j) = uniform(rng);
+            m = (0.5 * (m + m.transpose())).eval();
+        }
+        const Mat3 a = 0.3 * Mat3::Identity();
+        const Vec3 t(0.1, -0.2, 0.3);
+        MatX3 q = MatX3::Zero(basis.num_columns(), 3);
+        for (Index j = 0; j < basis.num_handles(); ++j) {
+            const Vec3 c = basis.centers.row(j).transpose();
+            const double sj = basis.scales(j);
+            const Index o = basis.handle_offset(j);
+            for (int d = 0; d < 3; ++d) {
+                const Mat3& hd = h[static_cast<size_t>(d)];
+                q(o, d) = c.dot(hd * c) + a.row(d).dot(c) + t(d);
+                const Vec3 linear = sj * (2.0 * hd * c + a.row(d).transpose());
+                for (int i = 0; i < 3; ++i)
+                    q(o + 1 + i, d) = linear(i);
+                if (basis.quadratic(j)) {
+                    const double s2 = sj * sj;
+                    q(o + 4, d) = s2 * hd(0, 0);
+                    q(o + 5, d) = s2 * hd(1, 1);
+                    q(o + 6, d) = s2 * hd(2, 2);
+                    q(o + 7, d) = 2 * s2 * hd(0, 1);
+                    q(o + 8, d) = 2 * s2 * hd(1, 2);
+                    q(o + 9, d) = 2 * s2 * hd(0, 2);
+                }
+            }
+        }
+        const MatX3 u = basis.basis * q;
+        double worst = 0.0, scale = 1e-300;
+        bool any = false;
+        for (Index i = 0; i < weights.rows(); ++i) {
+            bool all = true;
+            for (SparseRowMatrix::InnerIterator it(weights, i); it; ++it)
+                all = all && basis.quadratic(it.col());
+            if (!all)
+                continue;
+            any = true;
+            const Vec3 x = nodes.row(i).transpose();
+            Vec3 expected;
+            for (int d = 0; d < 3; ++d)
+                expected(d) = x.dot(h[static_cast<size_t>(d)] * x) + a.row(d).dot(x) + t(d);
+            worst = std::max(worst, (u.row(i).transpose() - expected).cwiseAbs().maxCoeff());
+            scale = std::max(scale, expected.cwiseAbs().maxCoeff());
+        }
+        return any ? worst / scale : -1.0;
+    }
+
+} // namespace
+
+BakeData run_bake(const BakeOptions& options, BakeReport& report)
+{
+    if (!(options.tet_size > 0 && options.tet_size < 1))
+        throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
+            options.tet_size);
+    if (options.weights_per_node < 1)
+        throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
+    BakeData bake;
+    bake.surface_file = options.surface;
+    bake.medial_file = options.medial;
+
+    // 1. Inputs.
+    MedialMesh input_medial;
+    stage(report, "read inputs", [&] {
+        bake.surface = read_surface(options.surface);
+        const SurfaceReport surface_report = validate_surface(bake.surface);
+        require_closed_manifold(surface_report, options.surface);
+        input_medial = read_medial(options.medial);
+        if (input_medial.num_spheres() == 0)
+            throw_error("{}: the medial mesh has no sphere", options.medial);
+        require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
+        bake.surface_hash = hash_file(options.surface);
+        bake.medial_hash = hash_file(options.medial);
+        report.bbox_diagonal = surface_report.bbox.diagonal().norm();
+    });
+    report.surface_vertices = bake.surface.num_vertices();
+    report.surface_faces = bake.surface.num_faces();
+    report.medial_spheres = input_medial.num_spheres();
+    report.medial_cones = input_medial.num_cones();
+    report.medial_slabs = input_medial.num_slabs();
+    const Eigen::Matrix<bool, Eigen::Dynamic, 1> quadratic
+        = parse_quadratic(options.quadratic, input_medial.num_spheres());
+
+    stage(report, "medial coverage", [&] {
+        MedialCoverage coverage = measure_coverage(input_medial, bake.surface);
+        bake.medial = inflate_to_cover(input_medial, coverage);
+        bake.medial_input_radii = input_medial.radii;
+        bake.medial_inflation = coverage.inflation;
+        report.uncovered_vertices = coverage.uncovered;
+        report.max_outside = coverage.max_outside;
+        report.inflation = coverage.inflation;
+    });
+
+    // 2. Tetrahedralization.
+    stage(report, "tetrahedralize", [&] {
+        bake.tet_mesh = tetrahedralize(
+            bake.surface, tetrahedralize_options_for(report.bbox_diagonal, options.tet_size));
+        const TetQuality quality = tet_quality(bake.tet_mesh);
+        report.tets = quality.num_tets;
+        report.nodes = quality.num_vertices;
+        report.min_dihedral_degrees = quality.min_dihedral_degrees;
+    });
+
+    // 3. Embedding of the surface vertices and the sphere centers.
+    stage(report, "embed", [&] {
+        const TetEmbedding surface = embed_points(bake.tet_mesh, bake.surface.positions);
+        bake.surface_tet = surface.tet;
+        bake.surface_barycentric = surface.barycentric;
+        bake.surface_outside_count = surface.outside_count;
+        report.surface_outside_tets = surface.outside_count;
+        const TetEmbedding medial = embed_points(bake.tet_mesh, bake.medial.centers);
+        bake.medial_tet = medial.tet;
+        bake.medial_barycentric = medial.barycentric;
+        report.medial_outside_tets = medial.outside_count;
+        report.medial_max_outside_distance = medial.max_outside_distance;
+    });
+
+    // 4. Harmonic weights.
+    Eigen::SparseMatrix<double> laplacian;
+    TetRestData rest;
+    stage(report, "harmonic weights", [&] {
+        rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
+        laplacian = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
+        const VecXi regions = assign_handle_regions(bake.tet_mesh.positions, input_medial.centers,
+            input_medial.radii, options.region_alpha);
+        HarmonicWeightOptions weight_options;
+        weight_options.max_handles_per_node = options.weights_per_node;
+        HarmonicWeights weights = compute_harmonic_weights(
+            laplacian, regions, input_medial.num_spheres(), weight_options);
+        bake.weights = std::move(weights.weights);
+        report.weight_partition_error = weights.diagnostics.max_partition_error;
+        report.weight_min = weights.diagnostics.min_weight;
+        report.weight_max = weights.diagnostics.max_weight;
+        report.weight_sparsify_change = weights.diagnostics.max_sparsify_change;
+    });
+
+    // 5. Handle basis.
+    HandleBasis basis;
+    stage(report, "handle basis", [&] {
+        const VecX scales
+            = handle_support_scales(bake.tet_mesh.positions, bake.weights, input_medial.centers);
+        basis = build_handle_basis(
+            bake.tet_mesh.positions, bake.weights, input_medial.centers, scales, quadratic);
+        report.linear_precision_error = linear_precision_error(basis, bake.tet_mesh.positions);
+        report.quadratic_precision_error
+            = quadratic_precision_error(basis, bake.weights, bake.tet_mesh.positions);
+        if (!(report.linear_precision_error < 1e-9))
+            throw_error("internal: the basis does not reproduce affine fields (error {:.3g})",
+                report.linear_precision_error);
+        bake.handle_centers = basis.centers;
+        bake.handle_scales = basis.scales;
+        bake.handle_quadratic = basis.quadratic.cast<int>();
+        bake.handle_column_offsets = basis.handle_offset;
+        bake.basis = basis.basis;
+    });
+    report.handles = basis.num_handles();
+    report.quadratic_handles = quadratic.count();
+    report.columns = basis.num_columns();
+
+    // 6. PD operators.
+    stage(report, "pd operators", [&] {
+        bake.dm_inverse = rest.dm_inverse;
+        bake.rest_volumes = rest.volumes;
+        bake.lumped_mass
+            = lumped_masses(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest.volumes);
+        bake.laplacian = laplacian;
+        const ReducedOperators reduced = reduce_operators(bake.basis, laplacian, bake.lumped_mass);
+        // A representative system (E ~ 1e5 Pa, 1000 kg/m^3, dt = 1/30 s) must be SPD.
+        const ReducedSystemCheck check = check_reduced_system(reduced, 1e5, 1000.0, 1.0 / 30.0);
+        report.reduced_reciprocal_condition = check.reciprocal_condition;
+        bake.reduced_laplacian = reduced.laplacian;
+        bake.reduced_mass = reduced.mass;
+    });
+
+    // 7. Collision-bound data.
+    stage(report, "collision data", [&] {
+        const SparseRowMatrix surface_basis = interpolate_rows(
+            bake.basis, bake.tet_mesh.tets, bake.surface_tet, bake.surface_barycentric);
+        bake.medial_basis = interpolate_rows(
+            bake.basis, bake.tet_mesh.tets, bake.medial_tet, bake.medial_barycentric);
+        bake.collision = build_collision_data(bake.medial, bake.surface, surface_basis,
+            bake.medial_basis, bake.handle_column_offsets);
+    });
+
+    nlohmann::json json;
+    json["tet_size"] = options.tet_size;
+    json["quadratic"] = options.quadratic;
+    json["weights_per_node"] = options.weights_per_node;
+    json["region_alpha"] = options.region_alpha;
+    bake.options_json = json.dump();
+    return bake;
+}
+
+std::string BakeReport::summary() const
+{
+    std::string out;
+    out += fmt::format("surface: {} vertices, {} faces, bbox diagonal {:.6g}\n", surface_vertices,
+        surface_faces, bbox_diagonal);
+    out += fmt::format("medial mesh: {} spheres, {} cones, {} slabs\n", medial_spheres,
+        medial_cones, medial_slabs);
+    out += fmt::format("coverage: {} of {} surface vertices outside the envelope, max {:.4g} "
+                       "({:.3f}% of the diagonal); radii inflated by {:.4g}\n",
+        uncovered_vertices, surface_vertices, max_outside,
+        100.0 * max_outside / std::max(bbox_diagonal, 1e-300), inflation);
+    out += fmt::format("tets: {} tets, {} nodes, min dihedral angle {:.2f} deg\n", tets, nodes,
+        min_dihedral_degrees);
+    out += fmt::format("embedding: {} surface vertices and {} sphere centers outside every tet "
+                       "(nearest tet used; farthest center {:.3g} away)\n",
+        surface_outside_tets, medial_outside_tets, medial_max_outside_distance);
+    out += fmt::format("handles: {} ({} quadratic), {} basis columns, {} reduced DOF\n", handles,
+        quadratic_handles, columns, 3 * columns);
+    out += fmt::format("weights: partition of unity error {:.2g}, raw range [{:.3g}, {:.3g}], "
+                       "largest change from sparsification {:.3g}\n",
+        weight_partition_error, weight_min, weight_max, weight_sparsify_change);
+    out += fmt::format("basis: linear precision error {:.2g}", linear_precision_error);
+    if (quadratic_precision_error >= 0)
+        out += fmt::format(", quadratic precision error {:.2g}", quadratic_precision_error);
+    out += fmt::format("\nreduced system: reciprocal condition {:.3g} (E 1e5 Pa, 1000 kg/m^3, "
+                       "dt 1/30 s)\n",
+        reduced_reciprocal_condition);
+    return out;
+}
+
+} // namespace mat

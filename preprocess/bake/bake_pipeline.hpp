@@ -1,0 +1,53 @@
+#pragma once
+// The whole offline stage (METHOD.md section 2): surface + medial mesh -> one BakeData, stage by
+// stage, with a progress line per stage on a terminal and a table of time and peak memory.
+
+#include <string>
+
+#include "common/bake_data.hpp"
+#include "common/timer.hpp"
+
+namespace mat {
+
+struct BakeOptions {
+    std::string surface; ///< closed surface file
+    std::string medial; ///< .ma file
+    std::string output; ///< .h5 bake file
+    double tet_size = 0.04; ///< tet size as a fraction of the bbox diagonal
+    std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
+    int weights_per_node = 8; ///< K: largest weights kept per node
+    double region_alpha = 0.5; ///< handle region: nodes within alpha * radius of the center
+};
+
+/// What a bake measured, for the report and for tests.
+struct BakeReport {
+    StageReport stages;
+    Index surface_vertices = 0, surface_faces = 0;
+    Index medial_spheres = 0, medial_cones = 0, medial_slabs = 0;
+    Index uncovered_vertices = 0;
+    double max_outside = 0.0; ///< before inflation, absolute
+    double inflation = 0.0; ///< added to every radius
+    double bbox_diagonal = 0.0;
+    Index tets = 0, nodes = 0;
+    double min_dihedral_degrees = 0.0;
+    Index surface_outside_tets = 0; ///< surface vertices embedded in their nearest tet
+    Index medial_outside_tets = 0; ///< sphere centers embedded in their nearest tet
+    double medial_max_outside_distance = 0.0;
+    Index handles = 0, quadratic_handles = 0, columns = 0;
+    double weight_partition_error = 0.0, weight_min = 0.0, weight_max = 0.0;
+    double weight_sparsify_change = 0.0;
+    double linear_precision_error = 0.0; ///< relative, over random affine fields
+    double quadratic_precision_error = -1.0; ///< relative, -1 if no node is fully quadratic
+    double reduced_reciprocal_condition = 0.0;
+
+    /// A readable multi-line summary (without the stage table).
+    std::string summary() const;
+};
+
+/// Runs every stage and returns the bake; fills `report`. Throws mat::Error on bad input.
+BakeData run_bake(const BakeOptions& options, BakeReport& report);
+
+/// Parses --quadratic: "all", "none" or a list "0,4,7" of handle indices below num_handles.
+Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, Index num_handles);
+
+} // namespace mat

@@ -1,0 +1,61 @@
+// libFuzzer target for the tet mesh readers (built only with -DMAT_BUILD_FUZZERS=ON and clang).
+// The first byte picks the format: even = Medit .mesh text; odd = TetGen, the rest split at the
+// first '@' into the .node and the .ele text. Every input must either throw mat::Error or give
+// a valid, positively oriented mesh; anything else is a finding.
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string_view>
+
+#include "common/error.hpp"
+#include "common/log.hpp"
+#include "formats/tet_mesh_io.hpp"
+
+namespace {
+
+void check(bool condition, const char* what)
+{
+    if (!condition) {
+        std::fprintf(stderr, "fuzz_tet_mesh_reader: invariant broken: %s\n", what);
+        std::abort();
+    }
+}
+
+} // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+    static const bool quiet = (mat::logger().set_level(spdlog::level::off), true);
+    (void)quiet;
+    if (size == 0)
+        return 0;
+    const std::string_view text(reinterpret_cast<const char*>(data) + 1, size - 1);
+    mat::TetMesh mesh;
+    try {
+        if (data[0] % 2 == 0) {
+            mesh = mat::read_medit_from_string(text, "fuzz.mesh");
+        } else {
+            const std::size_t at = text.find('@');
+            const std::string_view node = text.substr(0, at);
+            const std::string_view ele
+                = at == std::string_view::npos ? std::string_view() : text.substr(at + 1);
+            mesh = mat::read_tetgen_from_strings(node, "fuzz.node", ele, "fuzz.ele");
+        }
+    } catch (const mat::Error&) {
+        return 0;
+    }
+    check(mesh.positions.allFinite(), "finite positions");
+    check(mesh.num_tets() == 0
+            || (mesh.tets.minCoeff() >= 0 && mesh.tets.maxCoeff() < mesh.num_vertices()),
+        "tet indices in range");
+    for (mat::Index t = 0; t < mesh.num_tets(); ++t) {
+        const mat::Vec3 x0 = mesh.positions.row(mesh.tets(t, 0));
+        const mat::Vec3 a = mesh.positions.row(mesh.tets(t, 1)).transpose() - x0;
+        const mat::Vec3 b = mesh.positions.row(mesh.tets(t, 2)).transpose() - x0;
+        const mat::Vec3 c = mesh.positions.row(mesh.tets(t, 3)).transpose() - x0;
+        const double det = a.dot(b.cross(c));
+        check(!(det < 0.0), "positive orientation");
+    }
+    return 0;
+}
