@@ -13,7 +13,7 @@
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "formats/atomic_file.hpp"
-#include "formats/medial_io_text.hpp"
+#include "formats/text_io.hpp"
 
 namespace mat {
 
@@ -77,13 +77,9 @@ namespace {
     }
 
     // Reads the body of a .ma text line by line; every failure names the file and the line.
-    class MedialParser {
+    class MedialParser : public text_io::LineParser {
     public:
-        MedialParser(std::string_view text, const std::string& name)
-            : m_reader(text)
-            , m_name(name)
-        {
-        }
+        using LineParser::LineParser;
 
         MedialMesh parse()
         {
@@ -95,13 +91,6 @@ namespace {
         }
 
     private:
-        template <typename... Args>
-        [[noreturn]] void fail(fmt::format_string<Args...> format, Args&&... args) const
-        {
-            throw_error("{}: line {}: {}", m_name, m_reader.line_number(),
-                fmt::format(format, std::forward<Args>(args)...));
-        }
-
         void parse_header()
         {
             if (!m_reader.next())
@@ -128,17 +117,6 @@ namespace {
             if (found != values)
                 fail("wrong number of fields: '{}' records have {} values ({}), found {}", letter,
                     values, layout, found);
-        }
-
-        double real_field(std::size_t k, const char* field) const
-        {
-            const std::string_view token = m_reader.tokens()[k];
-            double value = 0.0;
-            if (!text_io::parse_real(token, value))
-                fail("value {} of field '{}' is not a number", quote(token), field);
-            if (!std::isfinite(value))
-                fail("value {} of field '{}' is not finite", quote(token), field);
-            return value;
         }
 
         int index_field(std::size_t k) const
@@ -261,8 +239,6 @@ namespace {
             return mesh;
         }
 
-        text_io::LineReader m_reader;
-        const std::string& m_name;
         std::array<int, 3> m_counts { 0, 0, 0 };
         int m_header_line = 0;
         std::optional<MedialDialect> m_dialect;

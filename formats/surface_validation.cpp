@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numeric>
 #include <tuple>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "common/error.hpp"
+#include "common/union_find.hpp"
 
 namespace mat {
 
@@ -61,34 +61,6 @@ namespace {
             issue.description = describe();
         }
     }
-
-    /// Union-find with path halving; the root of a set is its smallest element.
-    class DisjointSets {
-    public:
-        explicit DisjointSets(Index n)
-            : m_parent(n)
-        {
-            std::iota(m_parent.begin(), m_parent.end(), Index(0));
-        }
-        Index find(Index i)
-        {
-            while (m_parent[i] != i) {
-                m_parent[i] = m_parent[m_parent[i]];
-                i = m_parent[i];
-            }
-            return i;
-        }
-        void unite(Index a, Index b)
-        {
-            a = find(a);
-            b = find(b);
-            if (a != b)
-                m_parent[std::max(a, b)] = std::min(a, b);
-        }
-
-    private:
-        std::vector<Index> m_parent;
-    };
 
     /// A face's directed edge faces(f, k) -> faces(f, k + 1), keyed by its undirected vertices.
     struct HalfEdge {
@@ -193,8 +165,8 @@ SurfaceReport validate_surface(const SurfaceMesh& mesh, double relative_area_tol
             }
     std::sort(half_edges.begin(), half_edges.end());
 
-    DisjointSets corners(3 * nf); // corner 3f + k sits at vertex F(f, k)
-    DisjointSets face_sets(nf);
+    UnionFind corners(3 * nf); // corner 3f + k sits at vertex F(f, k)
+    UnionFind face_sets(nf);
     std::vector<char> open_face(nf, 0); // on a boundary, non-manifold or inconsistent edge
     const auto corner_at = [&](const HalfEdge& h, int vertex) {
         return 3 * Index(h.face) + (F(h.face, h.corner) == vertex ? h.corner : (h.corner + 1) % 3);

@@ -6,9 +6,10 @@
 
 #include "common/error.hpp"
 #include "common/log.hpp"
+#include "common/tet_geometry.hpp"
 #include "formats/atomic_file.hpp"
-#include "formats/medial_io_text.hpp"
 #include "formats/tet_mesh_io_detail.hpp"
+#include "formats/text_io.hpp"
 
 namespace mat {
 
@@ -29,18 +30,6 @@ namespace tet_mesh_io_detail {
             && iequals(text.substr(text.size() - suffix.size()), suffix);
     }
 
-    namespace {
-        // det[x1-x0, x2-x0, x3-x0] of tet t.
-        double orientation(const TetMesh& mesh, Index t)
-        {
-            const Vec3 x0 = mesh.positions.row(mesh.tets(t, 0));
-            const Vec3 e1 = mesh.positions.row(mesh.tets(t, 1)).transpose() - x0;
-            const Vec3 e2 = mesh.positions.row(mesh.tets(t, 2)).transpose() - x0;
-            const Vec3 e3 = mesh.positions.row(mesh.tets(t, 3)).transpose() - x0;
-            return e1.dot(e2.cross(e3));
-        }
-    } // namespace
-
     TetMesh finish(const RawTets& raw, const std::string& name)
     {
         TetMesh mesh;
@@ -50,7 +39,7 @@ namespace tet_mesh_io_detail {
             = Eigen::Map<const MatX4i>(raw.tets.data(), static_cast<Index>(raw.tets.size() / 4), 4);
         Index flipped = 0, flat = 0;
         for (Index t = 0; t < mesh.num_tets(); ++t) {
-            const double det = orientation(mesh, t);
+            const double det = tet_orientation(mesh, t);
             if (det < 0.0) {
                 std::swap(mesh.tets(t, 2), mesh.tets(t, 3));
                 ++flipped;

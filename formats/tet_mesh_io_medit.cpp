@@ -11,8 +11,8 @@
 
 #include "common/error.hpp"
 #include "formats/atomic_file.hpp"
-#include "formats/medial_io_text.hpp"
 #include "formats/tet_mesh_io_detail.hpp"
+#include "formats/text_io.hpp"
 
 namespace mat {
 
@@ -70,13 +70,9 @@ namespace {
             [&](const SkippedSection& s) { return iequals(token, s.name); });
     }
 
-    class MeditParser {
+    class MeditParser : public text_io::LineParser {
     public:
-        MeditParser(std::string_view text, const std::string& name)
-            : m_reader(text)
-            , m_name(name)
-        {
-        }
+        using LineParser::LineParser;
 
         TetMesh parse()
         {
@@ -114,13 +110,6 @@ namespace {
         }
 
     private:
-        template <typename... Args>
-        [[noreturn]] void fail(fmt::format_string<Args...> format, Args&&... args) const
-        {
-            throw_error("{}: line {}: {}", m_name, m_reader.line_number(),
-                fmt::format(format, std::forward<Args>(args)...));
-        }
-
         // The next token, crossing line ends. False at the end of the text.
         bool next_token(std::string_view& token)
         {
@@ -163,17 +152,6 @@ namespace {
             if (tokens.size() != values)
                 fail("wrong number of fields: a {} entry needs {} values ({}), found {}", section,
                     values, layout, tokens.size());
-        }
-
-        double real_field(std::size_t k, const char* field) const
-        {
-            const std::string_view token = m_reader.tokens()[k];
-            double value = 0.0;
-            if (!text_io::parse_real(token, value))
-                fail("value {} of field '{}' is not a number", quote(token), field);
-            if (!std::isfinite(value))
-                fail("value {} of field '{}' is not finite", quote(token), field);
-            return value;
         }
 
         void parse_section(std::string_view keyword)
@@ -242,8 +220,6 @@ namespace {
             }
         }
 
-        text_io::LineReader m_reader;
-        const std::string& m_name;
         std::size_t m_token = 0; // next token of the current line
         bool m_have_dimension = false;
         bool m_have_vertices = false;

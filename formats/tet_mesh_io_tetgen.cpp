@@ -11,8 +11,8 @@
 
 #include "common/error.hpp"
 #include "formats/atomic_file.hpp"
-#include "formats/medial_io_text.hpp"
 #include "formats/tet_mesh_io_detail.hpp"
+#include "formats/text_io.hpp"
 
 namespace mat {
 
@@ -28,20 +28,9 @@ namespace {
     // ---- TetGen -----------------------------------------------------------------------------
 
     // Line-by-line reader of one TetGen file (.node or .ele).
-    class TetGenFile {
+    class TetGenFile : public text_io::LineParser {
     public:
-        TetGenFile(std::string_view text, const std::string& name)
-            : m_reader(text)
-            , m_name(name)
-        {
-        }
-
-        template <typename... Args>
-        [[noreturn]] void fail(fmt::format_string<Args...> format, Args&&... args) const
-        {
-            throw_error("{}: line {}: {}", m_name, m_reader.line_number(),
-                fmt::format(format, std::forward<Args>(args)...));
-        }
+        using LineParser::LineParser;
 
         // The header's integers: at least 1, at most `layout_fields`; missing ones keep their
         // defaults.
@@ -95,10 +84,6 @@ namespace {
                 fail("{} {} is not finite", field, quote(token));
             return value;
         }
-
-    private:
-        text_io::LineReader m_reader;
-        const std::string& m_name;
     };
 
     std::string tetgen_base(const std::string& path)

@@ -4,15 +4,18 @@
 #include "common/log.hpp"
 #include "preprocess/cli/bake_command.hpp"
 #include "preprocess/cli/check_command.hpp"
+#include "preprocess/cli/sample_command.hpp"
 
 namespace mat {
 
 int bake_main(int argc, char** argv)
 {
-    CLI::App app { "mat-bake: turn a closed surface and its medial mesh into one HDF5 bake.\n"
-                   "  mat-bake SURFACE --medial FILE.ma -o OUT.h5 [options]\n"
-                   "  mat-bake inspect OUT.h5 | check SURFACE [--medial FILE.ma]",
-        "mat-bake" };
+    CLI::App app {
+        "mat-bake: turn a closed surface and its medial mesh into one HDF5 bake.\n"
+        "  mat-bake SURFACE --medial FILE.ma -o OUT.h5 [options]\n"
+        "  mat-bake inspect OUT.h5 | check SURFACE [--medial FILE.ma] | sample NAME -o DIR",
+        "mat-bake"
+    };
     CommonOptions common;
     add_common_options(app, common);
     app.require_subcommand(0, 1);
@@ -23,6 +26,8 @@ int bake_main(int argc, char** argv)
     CLI::App* check = add_check_command(app, check_options);
     std::string inspect_path;
     CLI::App* inspect = add_inspect_command(app, inspect_path);
+    SampleCommandOptions sample_options;
+    CLI::App* sample = add_sample_command(app, sample_options);
 
     return run_cli(app, argc, argv, [&] {
         apply_common_options(common);
@@ -30,6 +35,8 @@ int bake_main(int argc, char** argv)
             run_check(check_options);
         else if (inspect->parsed())
             run_inspect(inspect_path);
+        else if (sample->parsed())
+            run_sample_command(sample_options);
         else
             run_bake_command(bake_options);
     });

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
+#include "preprocess/embedding/box_grid.hpp"
 
 namespace mat {
 
@@ -53,91 +54,6 @@ namespace {
         return a + ab * (vb * denom) + ac * (vc * denom);
     }
 
-    // A uniform grid over the mesh bounding box; each cell lists the tets whose boxes overlap it.
-    class TetGrid {
-    public:
-        TetGrid(const TetMesh& mesh)
-            : m_mesh(mesh)
-        {
-            const Index num_tets = mesh.num_tets();
-            for (Index v = 0; v < mesh.num_vertices(); ++v)
-                m_box.extend(mesh.positions.row(v).transpose());
-            // About 2 tets per cell on average.
-            const double volume = std::max(m_box.volume(), 1e-300);
-            const double cell = std::cbrt(volume * 2.0 / std::max<Index>(num_tets, 1));
-            m_cell = std::max(cell, 1e-12 * std::max(m_box.diagonal().norm(), 1e-300));
-            for (int a = 0; a < 3; ++a)
-                m_dims[a]
-                    = std::max<Index>(1, static_cast<Index>(std::ceil(m_box.sizes()(a) / m_cell)));
-            const Index num_cells = m_dims[0] * m_dims[1] * m_dims[2];
-            m_start.assign(static_cast<size_t>(num_cells + 1), 0);
-            // Two passes: count, then fill (CSR).
-            for (int pass = 0; pass < 2; ++pass) {
-                std::vector<Index> cursor;
-                if (pass == 1) {
-                    for (Index i = 0; i < num_cells; ++i)
-                        m_start[static_cast<size_t>(i + 1)] += m_start[static_cast<size_t>(i)];
-                    cursor.assign(m_start.begin(), m_start.end() - 1);
-                    m_items.resize(static_cast<size_t>(m_start.back()));
-                }
-                for (Index t = 0; t < num_tets; ++t) {
-                    Box3 box;
-                    for (int k = 0; k < 4; ++k)
-                        box.extend(mesh.positions.row(mesh.tets(t, k)).transpose());
-                    const auto lo = cell_of(box.min()), hi = cell_of(box.max());
-                    for (Index i = lo[0]; i <= hi[0]; ++i)
-                        for (Index j = lo[1]; j <= hi[1]; ++j)
-                            for (Index k = lo[2]; k <= hi[2]; ++k) {
-                                const Index id = (i * m_dims[1] + j) * m_dims[2] + k;
-                                if (pass == 0)
-                                    ++m_start[static_cast<size_t>(id + 1)];
-                                else
-                                    m_items[static_cast<size_t>(cursor[static_cast<size_t>(id)]++)]
-                                        = static_cast<int>(t);
-                            }
-                }
-            }
-        }
-
-        std::array<Index, 3> cell_of(const Vec3& p) const
-        {
-            std::array<Index, 3> c;
-            for (int a = 0; a < 3; ++a)
-                c[a] = std::clamp<Index>(
-                    static_cast<Index>(std::floor((p(a) - m_box.min()(a)) / m_cell)), 0,
-                    m_dims[a] - 1);
-            return c;
-        }
-
-        // Calls visit(tet) for the tets listed in the cells within `ring` cells of p's cell.
-        template <typename Visit> void visit_ring(const Vec3& p, Index ring, Visit&& visit) const
-        {
-            const auto c = cell_of(p);
-            for (Index i = std::max<Index>(0, c[0] - ring);
-                 i <= std::min(m_dims[0] - 1, c[0] + ring); ++i)
-                for (Index j = std::max<Index>(0, c[1] - ring);
-                     j <= std::min(m_dims[1] - 1, c[1] + ring); ++j)
-                    for (Index k = std::max<Index>(0, c[2] - ring);
-                         k <= std::min(m_dims[2] - 1, c[2] + ring); ++k) {
-                        const Index id = (i * m_dims[1] + j) * m_dims[2] + k;
-                        for (Index s = m_start[static_cast<size_t>(id)];
-                             s < m_start[static_cast<size_t>(id + 1)]; ++s)
-                            visit(m_items[static_cast<size_t>(s)]);
-                    }
-        }
-
-        double cell_size() const { return m_cell; }
-        Index max_dim() const { return std::max({ m_dims[0], m_dims[1], m_dims[2] }); }
-
-    private:
-        const TetMesh& m_mesh;
-        Box3 m_box;
-        double m_cell = 1.0;
-        std::array<Index, 3> m_dims { 1, 1, 1 };
-        std::vector<Index> m_start;
-        std::vector<int> m_items;
-    };
-
 } // namespace
 
 double point_tet_distance(const Eigen::Ref<const Vec3>& a, const Eigen::Ref<const Vec3>& b,
@@ -161,14 +77,57 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
 {
     if (mesh.num_tets() == 0)
         throw_error("cannot embed points: the tet mesh has no tets");
-    const TetGrid grid(mesh);
+    auto corner = [&](Index t, int k) { return mesh.positions.row(mesh.tets(t, k)).transpose(); };
+
+    // Inside queries: a grid over the tets. Outside queries: a grid over the boundary faces
+    // (faces of one tet only), since the nearest point of the mesh lies on its boundary.
+    std::vector<Box3> tet_boxes(static_cast<size_t>(mesh.num_tets()));
+    for (Index t = 0; t < mesh.num_tets(); ++t)
+        for (int k = 0; k < 4; ++k)
+            tet_boxes[static_cast<size_t>(t)].extend(corner(t, k));
+    const BoxGrid tet_grid(tet_boxes);
+
+    static constexpr int face_corners[4][3]
+        = { { 1, 2, 3 }, { 0, 2, 3 }, { 0, 1, 3 }, { 0, 1, 2 } };
+    struct BoundaryFace {
+        std::array<int, 3> key;
+        int tet;
+        int face;
+    };
+    std::vector<BoundaryFace> faces;
+    faces.reserve(static_cast<size_t>(4 * mesh.num_tets()));
+    for (Index t = 0; t < mesh.num_tets(); ++t)
+        for (int f = 0; f < 4; ++f) {
+            std::array<int, 3> key;
+            for (int k = 0; k < 3; ++k)
+                key[static_cast<size_t>(k)] = mesh.tets(t, face_corners[f][k]);
+            std::sort(key.begin(), key.end());
+            faces.push_back({ key, static_cast<int>(t), f });
+        }
+    std::sort(faces.begin(), faces.end(), [](const BoundaryFace& a, const BoundaryFace& b) {
+        return a.key < b.key || (a.key == b.key && a.tet < b.tet);
+    });
+    std::vector<BoundaryFace> boundary;
+    for (size_t i = 0; i < faces.size();) {
+        size_t j = i;
+        while (j < faces.size() && faces[j].key == faces[i].key)
+            ++j;
+        if (j - i == 1)
+            boundary.push_back(faces[i]);
+        i = j;
+    }
+    std::vector<Box3> face_boxes(boundary.size());
+    for (size_t b = 0; b < boundary.size(); ++b)
+        for (int k = 0; k < 3; ++k)
+            face_boxes[b].extend(
+                mesh.positions.row(boundary[b].key[static_cast<size_t>(k)]).transpose());
+    const BoxGrid face_grid(face_boxes);
+
     const Index num_points = points.rows();
     TetEmbedding result;
     result.tet.resize(num_points);
     result.barycentric.resize(num_points, 4);
     std::vector<double> outside_distance(static_cast<size_t>(num_points), 0.0);
-
-    auto corner = [&](Index t, int k) { return mesh.positions.row(mesh.tets(t, k)).transpose(); };
 
     tbb::parallel_for(Index(0), num_points, [&](Index p) {
         const Vec3 x = points.row(p).transpose();
@@ -176,7 +135,7 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
         int best = -1;
         double best_min = -std::numeric_limits<double>::infinity();
         Vec4 best_bary = Vec4::Zero();
-        grid.visit_ring(x, 0, [&](int t) {
+        tet_grid.visit_shell(x, 0, [&](int t) {
             const Vec4 bary
                 = tet_barycentric(corner(t, 0), corner(t, 1), corner(t, 2), corner(t, 3), x);
             if (bary.minCoeff() > best_min || (bary.minCoeff() == best_min && t < best)) {
@@ -191,23 +150,27 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
             result.barycentric.row(p) = best_bary.transpose();
             return;
         }
-        // Outside: the nearest tet, searching growing rings of cells until the ring is farther
-        // than the best distance found.
+        // Outside: the tet of the nearest boundary face, searching shells of cells outward
+        // until the next shell is farther than the best distance found.
         double best_distance = std::numeric_limits<double>::infinity();
-        best = -1;
-        for (Index ring = 0; ring <= grid.max_dim(); ++ring) {
-            grid.visit_ring(x, ring, [&](int t) {
-                const double dist
-                    = point_tet_distance(corner(t, 0), corner(t, 1), corner(t, 2), corner(t, 3), x);
-                if (dist < best_distance || (dist == best_distance && t < best)) {
+        int best_face = -1;
+        for (Index ring = 0; ring <= face_grid.max_ring(); ++ring) {
+            face_grid.visit_shell(x, ring, [&](int b) {
+                const auto& key = boundary[static_cast<size_t>(b)].key;
+                const double dist = (closest_on_triangle(x, mesh.positions.row(key[0]).transpose(),
+                                         mesh.positions.row(key[1]).transpose(),
+                                         mesh.positions.row(key[2]).transpose())
+                    - x)
+                                        .norm();
+                if (dist < best_distance || (dist == best_distance && b < best_face)) {
                     best_distance = dist;
-                    best = t;
+                    best_face = b;
                 }
             });
-            // Tets not yet visited lie in cells beyond this ring: at least ring cells from x.
-            if (best >= 0 && best_distance <= ring * grid.cell_size())
+            if (best_face >= 0 && best_distance <= ring * face_grid.cell_size())
                 break;
         }
+        best = boundary[static_cast<size_t>(best_face)].tet;
         result.tet(p) = best;
         result.barycentric.row(p)
             = tet_barycentric(corner(best, 0), corner(best, 1), corner(best, 2), corner(best, 3), x)

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -12,43 +11,16 @@
 #include "common/log.hpp"
 #include "common/sparse_cholesky.hpp"
 #include "common/timer.hpp"
+#include "common/union_find.hpp"
 
 namespace mat {
 
 namespace {
-    // Union-find over the graph of the Laplacian's pattern.
-    class Components {
-    public:
-        explicit Components(Index n)
-            : m_parent(static_cast<size_t>(n))
-        {
-            std::iota(m_parent.begin(), m_parent.end(), Index(0));
-        }
-        Index find(Index i)
-        {
-            while (m_parent[i] != i) {
-                m_parent[i] = m_parent[m_parent[i]];
-                i = m_parent[i];
-            }
-            return i;
-        }
-        void unite(Index a, Index b)
-        {
-            a = find(a);
-            b = find(b);
-            if (a != b)
-                m_parent[std::max(a, b)] = std::min(a, b);
-        }
-
-    private:
-        std::vector<Index> m_parent;
-    };
-
     void check_every_free_node_reaches_a_region(
         const Eigen::SparseMatrix<double>& laplacian, const Eigen::Ref<const VecXi>& owner)
     {
         const Index n = laplacian.rows();
-        Components components(n);
+        UnionFind components(n); // over the graph of the Laplacian's pattern
         for (Index col = 0; col < laplacian.outerSize(); ++col)
             for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, col); it; ++it)
                 components.unite(it.row(), it.col());

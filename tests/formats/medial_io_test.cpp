@@ -1,61 +1,29 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <random>
 #include <set>
 #include <string>
 
-#include <unistd.h>
-
 #include "common/error.hpp"
 #include "formats/medial_io.hpp"
+#include "tests/support/error_checks.hpp"
+#include "tests/support/temp_files.hpp"
+#include "tests/support/text_mutation.hpp"
 
 namespace mat {
 namespace {
 
-    namespace fs = std::filesystem;
-
     // A fresh directory per test, removed afterwards.
-    class MedialIo : public ::testing::Test {
+    class MedialIo : public test::ScratchDirTest {
     protected:
-        void SetUp() override
-        {
-            const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-            m_dir = fs::temp_directory_path()
-                / fmt::format("mat_medial_io_{}_{}", getpid(), info->name());
-            fs::remove_all(m_dir);
-            fs::create_directories(m_dir);
-        }
-        void TearDown() override { fs::remove_all(m_dir); }
-
-        std::string path(const std::string& name) const { return (m_dir / name).string(); }
-
-        std::string write_text(const std::string& name, const std::string& text) const
-        {
-            const std::string p = path(name);
-            std::ofstream(p, std::ios::binary) << text;
-            return p;
-        }
-
         // Reads `text` from a file and expects mat::Error "<file>: line <line>: ...<what>...".
         void expect_error(const std::string& text, int line, const std::string& what) const
         {
             const std::string p = write_text("broken.ma", text);
-            try {
-                read_medial(p);
-                ADD_FAILURE() << "no error for:\n" << text;
-            } catch (const Error& e) {
-                const std::string message = e.what();
-                const std::string prefix = fmt::format("{}: line {}: ", p, line);
-                EXPECT_EQ(message.rfind(prefix, 0), 0u) << message << "\nexpected " << prefix;
-                EXPECT_NE(message.find(what), std::string::npos)
-                    << message << "\nexpected " << what;
-            }
+            SCOPED_TRACE(text);
+            test::expect_line_error([&] { read_medial(p); }, p, line, what);
         }
-
-        fs::path m_dir;
     };
 
     void expect_equal(const MedialMesh& a, const MedialMesh& b)
@@ -111,12 +79,6 @@ namespace {
         return mesh;
     }
 
-    std::string slurp(const std::string& path)
-    {
-        std::ifstream in(path, std::ios::binary);
-        return std::string(std::istreambuf_iterator<char>(in), {});
-    }
-
     // ---- Round trips ----------------------------------------------------------------------
 
     TEST_F(MedialIo, RoundTripBothDialects)
@@ -138,10 +100,10 @@ namespace {
         for (Index s = 0; s < mesh.num_slabs(); ++s)
             for (int k = 0; k < 3; ++k)
                 slab_edges.insert({ mesh.slabs(s, k), mesh.slabs(s, (k + 1) % 3) });
-        const std::string qmat = slurp(path("q.ma"));
+        const std::string qmat = test::read_file_contents(path("q.ma"));
         EXPECT_EQ(qmat.substr(0, qmat.find('\n')),
             fmt::format("30 {} 30", mesh.num_cones() + slab_edges.size()));
-        const std::string paper = slurp(path("p.ma"));
+        const std::string paper = test::read_file_contents(path("p.ma"));
         EXPECT_EQ(paper.substr(0, paper.find('\n')), fmt::format("30 {} 30", mesh.num_cones()));
         EXPECT_EQ(paper.find("\ne "), std::string::npos);
         EXPECT_NE(paper.find("\nc "), std::string::npos);
@@ -159,7 +121,7 @@ namespace {
             write_medial(path("e.ma"), MedialMesh(), dialect);
             expect_equal(read_medial(path("e.ma")), MedialMesh());
         }
-        EXPECT_EQ(slurp(path("e.ma")), "0 0 0\n");
+        EXPECT_EQ(test::read_file_contents(path("e.ma")), "0 0 0\n");
     }
 
     TEST_F(MedialIo, ConeOnSlabEdgeIsImpliedInQmatKeptInPaper)
@@ -330,7 +292,7 @@ namespace {
     TEST_F(MedialIo, MissingFileAndDirectory)
     {
         EXPECT_THROW(read_medial(path("absent.ma")), Error);
-        EXPECT_THROW(read_medial(m_dir.string()), Error);
+        EXPECT_THROW(read_medial(dir().string()), Error);
     }
 
     // ---- Writing: invalid meshes and atomicity --------------------------------------------
@@ -348,7 +310,7 @@ namespace {
                     EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
                     EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what();
                 }
-                EXPECT_EQ(slurp(p), "previous content");
+                EXPECT_EQ(test::read_file_contents(p), "previous content");
             }
         };
         MedialMesh bad = good;
@@ -372,7 +334,7 @@ namespace {
 
         EXPECT_THROW(write_medial(path("no/such/dir/x.ma"), good), Error);
         // Only the untouched file is left: no temporaries.
-        EXPECT_EQ(std::distance(fs::directory_iterator(m_dir), fs::directory_iterator()), 1);
+        EXPECT_EQ(num_entries(), 1u);
     }
 
     // ---- Garbage never crashes ------------------------------------------------------------
@@ -405,52 +367,11 @@ namespace {
         };
         const std::string alphabet = "0123456789 -+.eEvfcsx#\n\t\r";
         std::mt19937 rng(2024);
-        auto below = [&](std::size_t n) {
-            return n == 0 ? std::size_t(0)
-                          : std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
-        };
+        std::uniform_int_distribution<std::size_t> pick_seed(0, seeds.size() - 1);
         int accepted = 0, rejected = 0;
         for (int iteration = 0; iteration < 4000; ++iteration) {
-            std::string text = seeds[below(seeds.size())];
-            switch (iteration % 5) {
-            case 0: // truncate
-                text.resize(below(text.size() + 1));
-                break;
-            case 1: // a few byte mutations from a format-like alphabet
-                for (std::size_t m = 0, n = 1 + below(4); m < n && !text.empty(); ++m)
-                    text[below(text.size())] = alphabet[below(alphabet.size())];
-                break;
-            case 2: // raw random bytes replaced, inserted or erased
-                for (std::size_t m = 0, n = 1 + below(4); m < n && !text.empty(); ++m) {
-                    const std::size_t at = below(text.size());
-                    const char byte = static_cast<char>(below(256));
-                    if (m % 3 == 0)
-                        text[at] = byte;
-                    else if (m % 3 == 1)
-                        text.insert(text.begin() + static_cast<std::ptrdiff_t>(at), byte);
-                    else
-                        text.erase(at, 1);
-                }
-                break;
-            case 3: { // duplicate or drop a line
-                const std::size_t at = text.find('\n', below(text.size()));
-                const std::size_t end
-                    = at == std::string::npos ? text.npos : text.find('\n', at + 1);
-                if (at != std::string::npos && end != std::string::npos) {
-                    const std::string line = text.substr(at, end - at);
-                    if (below(2) == 0)
-                        text.insert(end, line);
-                    else
-                        text.erase(at, end - at);
-                }
-                break;
-            }
-            default: // pure garbage
-                text.clear();
-                for (std::size_t n = below(200); n > 0; --n)
-                    text += below(2) ? alphabet[below(alphabet.size())]
-                                     : static_cast<char>(below(256));
-            }
+            const std::string text = test::mutate_text(
+                seeds[pick_seed(rng)], rng, iteration % test::num_text_mutations, alphabet);
             try {
                 const MedialMesh mesh = read_medial_from_string(text, "fuzz.ma");
                 ++accepted;

@@ -1,15 +1,28 @@
 #pragma once
-// Small meshes built in code for the surface tests.
+// Small meshes built in code for the surface tests, and checks on them.
+
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <vector>
 
 #include "common/mesh_types.hpp"
+#include "tests/support/temp_files.hpp"
 
 namespace mat::test {
+
+/// A fresh scratch directory per test under the build tree, removed afterwards.
+class SurfaceScratchTest : public ScratchDirTest {
+protected:
+    SurfaceScratchTest()
+        : ScratchDirTest(std::filesystem::path(MAT_BINARY_DIR) / "test_scratch")
+    {
+    }
+};
 
 /// The unit cube [0, 1]^3: 8 vertices, 12 faces, outward.
 inline SurfaceMesh unit_cube()
@@ -104,5 +117,43 @@ inline std::vector<std::array<double, 9>> canonical_triangles(const SurfaceMesh&
     std::sort(out.begin(), out.end());
     return out;
 }
+
+/// Same triangles (positions and orientation) up to vertex numbering, within `tolerance`.
+inline void expect_same_surface(const SurfaceMesh& a, const SurfaceMesh& b, double tolerance)
+{
+    ASSERT_EQ(a.num_vertices(), b.num_vertices());
+    ASSERT_EQ(a.num_faces(), b.num_faces());
+    const auto ta = test::canonical_triangles(a);
+    const auto tb = test::canonical_triangles(b);
+    for (std::size_t f = 0; f < ta.size(); ++f)
+        for (int k = 0; k < 9; ++k)
+            ASSERT_NEAR(ta[f][k], tb[f][k], tolerance) << "triangle " << f;
+}
+
+/// The unit cube as an ASCII PLY of 6 quads.
+inline const char* const k_cube_quads_ply = R"(ply
+format ascii 1.0
+element vertex 8
+property float x
+property float y
+property float z
+element face 6
+property list uchar int vertex_indices
+end_header
+0 0 0
+1 0 0
+1 1 0
+0 1 0
+0 0 1
+1 0 1
+1 1 1
+0 1 1
+4 0 3 2 1
+4 4 5 6 7
+4 0 1 5 4
+4 3 7 6 2
+4 0 4 7 3
+4 1 2 6 5
+)";
 
 } // namespace mat::test

@@ -1,82 +1,42 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <random>
 #include <string>
 
-#include <unistd.h>
-
 #include "common/error.hpp"
 #include "common/log.hpp"
+#include "common/tet_geometry.hpp"
 #include "formats/tet_mesh_io.hpp"
+#include "tests/support/error_checks.hpp"
+#include "tests/support/temp_files.hpp"
+#include "tests/support/text_mutation.hpp"
 
 namespace mat {
 namespace {
 
     namespace fs = std::filesystem;
 
-    class TetMeshIo : public ::testing::Test {
-    protected:
-        void SetUp() override
-        {
-            const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-            m_dir = fs::temp_directory_path()
-                / fmt::format("mat_tet_mesh_io_{}_{}", getpid(), info->name());
-            fs::remove_all(m_dir);
-            fs::create_directories(m_dir);
-        }
-        void TearDown() override { fs::remove_all(m_dir); }
+    using TetMeshIo = test::ScratchDirTest;
 
-        std::string path(const std::string& name) const { return (m_dir / name).string(); }
-
-        std::string write_text(const std::string& name, const std::string& text) const
-        {
-            const std::string p = path(name);
-            std::ofstream(p, std::ios::binary) << text;
-            return p;
-        }
-
-        std::size_t num_files() const
-        {
-            return static_cast<std::size_t>(
-                std::distance(fs::directory_iterator(m_dir), fs::directory_iterator()));
-        }
-
-        fs::path m_dir;
-    };
-
-    // Expects mat::Error whose message starts "<file>: line <line>: " and contains `what`.
-    template <typename Read>
-    void expect_error(Read read, const std::string& file, int line, const std::string& what)
-    {
-        try {
-            read();
-            ADD_FAILURE() << "no error, expected " << what;
-        } catch (const Error& e) {
-            const std::string message = e.what();
-            const std::string prefix = fmt::format("{}: line {}: ", file, line);
-            EXPECT_EQ(message.rfind(prefix, 0), 0u) << message << "\nexpected " << prefix;
-            EXPECT_NE(message.find(what), std::string::npos) << message << "\nexpected " << what;
-        }
-    }
+    using test::expect_line_error;
 
     void expect_medit_error(const std::string& text, int line, const std::string& what)
     {
-        expect_error([&] { read_medit_from_string(text, "t.mesh"); }, "t.mesh", line, what);
+        expect_line_error([&] { read_medit_from_string(text, "t.mesh"); }, "t.mesh", line, what);
     }
 
     void expect_node_error(const std::string& node, int line, const std::string& what)
     {
         const std::string ele = "1 4 0\n0 0 1 2 3\n";
-        expect_error(
+        expect_line_error(
             [&] { read_tetgen_from_strings(node, "t.node", ele, "t.ele"); }, "t.node", line, what);
     }
 
     void expect_ele_error(const std::string& ele, int line, const std::string& what)
     {
         const std::string node = "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";
-        expect_error(
+        expect_line_error(
             [&] { read_tetgen_from_strings(node, "t.node", ele, "t.ele"); }, "t.ele", line, what);
     }
 
@@ -86,15 +46,6 @@ namespace {
         ASSERT_EQ(a.num_tets(), b.num_tets());
         EXPECT_TRUE(a.positions == b.positions); // bit for bit
         EXPECT_TRUE(a.tets == b.tets);
-    }
-
-    double volume6(const TetMesh& mesh, Index t)
-    {
-        const Vec3 x0 = mesh.positions.row(mesh.tets(t, 0));
-        const Vec3 a = mesh.positions.row(mesh.tets(t, 1)).transpose() - x0;
-        const Vec3 b = mesh.positions.row(mesh.tets(t, 2)).transpose() - x0;
-        const Vec3 c = mesh.positions.row(mesh.tets(t, 3)).transpose() - x0;
-        return a.dot(b.cross(c));
     }
 
     // A jittered unit cube cut into 5 positively oriented tets.
@@ -111,7 +62,7 @@ namespace {
         mesh.tets.resize(5, 4);
         mesh.tets << 0, 1, 2, 4, 1, 3, 2, 7, 1, 4, 5, 7, 2, 7, 4, 6, 1, 2, 4, 7;
         for (Index t = 0; t < mesh.num_tets(); ++t)
-            if (volume6(mesh, t) < 0)
+            if (tet_orientation(mesh, t) < 0)
                 std::swap(mesh.tets(t, 2), mesh.tets(t, 3));
         return mesh;
     }
@@ -122,7 +73,7 @@ namespace {
     {
         const TetMesh mesh = cube(5);
         for (Index t = 0; t < mesh.num_tets(); ++t)
-            ASSERT_GT(volume6(mesh, t), 0.0);
+            ASSERT_GT(tet_orientation(mesh, t), 0.0);
         write_tet_mesh(path("cube.mesh"), mesh);
         expect_equal(read_tet_mesh(path("cube.mesh")), mesh);
         write_tet_mesh(path("cube.node"), mesh);
@@ -131,7 +82,7 @@ namespace {
         expect_equal(read_tetgen(path("cube")), mesh);
         write_tet_mesh(path("other.ELE"), mesh);
         expect_equal(read_tet_mesh(path("other.node")), mesh);
-        EXPECT_EQ(num_files(), 5u); // no temporaries left
+        EXPECT_EQ(num_entries(), 5u); // no temporaries left
     }
 
     TEST_F(TetMeshIo, UnknownExtension)
@@ -139,7 +90,7 @@ namespace {
         EXPECT_THROW(read_tet_mesh(path("x.obj")), Error);
         EXPECT_THROW(write_tet_mesh(path("x.vtk"), cube(1)), Error);
         EXPECT_THROW(read_tet_mesh(path("absent.mesh")), Error);
-        EXPECT_EQ(num_files(), 0u);
+        EXPECT_EQ(num_entries(), 0u);
     }
 
     // ---- Medit ----------------------------------------------------------------------------
@@ -167,7 +118,7 @@ namespace {
         EXPECT_TRUE(mesh.tets.row(0) == Eigen::RowVector4i(0, 1, 2, 3));
         // The second tet is negatively oriented as written: its last two indices are swapped.
         EXPECT_TRUE(mesh.tets.row(1) == Eigen::RowVector4i(1, 3, 4, 2)) << mesh.tets;
-        EXPECT_GT(volume6(mesh, 1), 0.0);
+        EXPECT_GT(tet_orientation(mesh, 1), 0.0);
     }
 
     const std::string medit_head = "MeshVersionFormatted 2\nDimension 3\nVertices\n4\n"
@@ -222,7 +173,7 @@ namespace {
     {
         const std::string p
             = write_text("bad.mesh", medit_head + "Tetrahedra\n1\n1 2 3 9 0\nEnd\n");
-        expect_error([&] { read_tet_mesh(p); }, p, 11, "vertex index 9 out of range");
+        expect_line_error([&] { read_tet_mesh(p); }, p, 11, "vertex index 9 out of range");
     }
 
     // ---- TetGen ---------------------------------------------------------------------------
@@ -245,7 +196,7 @@ namespace {
         const std::string node = "4\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";
         const TetMesh mesh = read_tetgen_from_strings(node, "t.node", "1\n0 0 2 1 3\n", "t.ele");
         EXPECT_TRUE(mesh.tets.row(0) == Eigen::RowVector4i(0, 2, 3, 1)) << mesh.tets;
-        EXPECT_GT(volume6(mesh, 0), 0.0);
+        EXPECT_GT(tet_orientation(mesh, 0), 0.0);
     }
 
     TEST(TetGen, RejectsBrokenNodeFile)
@@ -286,7 +237,7 @@ namespace {
     {
         write_text("m.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
         write_text("m.ele", "1 4 0\n1 1 2 3 0\n");
-        expect_error(
+        expect_line_error(
             [&] { read_tet_mesh(path("m.node")); }, path("m.ele"), 2, "node index 0 out of range");
         fs::remove(path("m.ele"));
         EXPECT_THROW(read_tetgen(path("m")), Error);
@@ -306,7 +257,7 @@ namespace {
                     EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
                 }
             }
-            EXPECT_EQ(num_files(), 0u);
+            EXPECT_EQ(num_entries(), 0u);
         };
         TetMesh bad = good;
         bad.positions(3, 1) = std::numeric_limits<double>::infinity();
@@ -318,7 +269,7 @@ namespace {
         bad.tets(1, 3) = bad.tets(1, 0);
         expect_write_error(bad, "tet 1 repeats vertex index");
         EXPECT_THROW(write_tet_mesh(path("empty.node"), TetMesh()), Error); // 0 points: see .poly
-        EXPECT_EQ(num_files(), 0u);
+        EXPECT_EQ(num_entries(), 0u);
         // Medit can hold an empty mesh.
         write_tet_mesh(path("empty.mesh"), TetMesh());
         expect_equal(read_tet_mesh(path("empty.mesh")), TetMesh());
@@ -330,9 +281,8 @@ namespace {
         // The .ele target is a directory: the write fails before anything is committed.
         fs::create_directories(path("m.ele"));
         EXPECT_THROW(write_tetgen(path("m"), cube(3)), Error);
-        std::ifstream in(path("m.node"));
-        EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), "old node");
-        EXPECT_EQ(num_files(), 2u);
+        EXPECT_EQ(test::read_file_contents(path("m.node")), "old node");
+        EXPECT_EQ(num_entries(), 2u);
     }
 
     // ---- Garbage never crashes ------------------------------------------------------------
@@ -345,39 +295,7 @@ namespace {
             ASSERT_LT(mesh.tets.maxCoeff(), mesh.num_vertices());
         }
         for (Index t = 0; t < mesh.num_tets(); ++t)
-            ASSERT_GE(volume6(mesh, t), 0.0);
-    }
-
-    std::string mutate(std::string text, std::mt19937& rng, int kind)
-    {
-        const std::string alphabet = "0123456789 -+.eE#\n\tEndVertices";
-        auto below = [&](std::size_t n) {
-            return n == 0 ? std::size_t(0)
-                          : std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
-        };
-        switch (kind) {
-        case 0:
-            text.resize(below(text.size() + 1));
-            break;
-        case 1:
-            for (std::size_t m = 0, n = 1 + below(4); m < n && !text.empty(); ++m)
-                text[below(text.size())] = alphabet[below(alphabet.size())];
-            break;
-        case 2:
-            for (std::size_t m = 0, n = 1 + below(4); m < n && !text.empty(); ++m) {
-                const std::size_t at = below(text.size());
-                if (m % 2 == 0)
-                    text[at] = static_cast<char>(below(256));
-                else
-                    text.erase(at, 1);
-            }
-            break;
-        default:
-            text.clear();
-            for (std::size_t n = below(200); n > 0; --n)
-                text += below(2) ? alphabet[below(alphabet.size())] : static_cast<char>(below(256));
-        }
-        return text;
+            ASSERT_GE(tet_orientation(mesh, t), 0.0);
     }
 
     TEST(TetMeshIoFuzz, MutatedAndRandomInputsNeverCrash)
@@ -388,14 +306,18 @@ namespace {
         const std::string node = "5 3 1 1\n1 0 0 0 0.5 1\n2 1 0 0 0.5 0\n3 0 1 0 0.5 0\n"
                                  "4 0 0 1 0.5 0\n5 1 1 1 0.5 1\n";
         const std::string ele = "2 4 0\n1 1 2 3 4\n2 2 3 4 5\n";
+        const std::string alphabet = "0123456789 -+.eE#\n\tEndVertices";
         std::mt19937 rng(77);
         const auto level = logger().level();
         logger().set_level(spdlog::level::err); // accepted inputs log their reoriented tets
         int accepted = 0, rejected = 0;
         for (int iteration = 0; iteration < 3000; ++iteration) {
-            const int kind = iteration % 4;
+            const int kind = iteration % test::num_text_mutations;
             const int format = iteration % 3; // Medit, TetGen .node mutated, .ele mutated
-            const std::string a = mutate(format == 0 ? medit : format == 1 ? node : ele, rng, kind);
+            const std::string a = test::mutate_text(format == 0 ? medit
+                    : format == 1                               ? node
+                                                                : ele,
+                rng, kind, alphabet);
             try {
                 const TetMesh mesh = format == 0 ? read_medit_from_string(a, "f.mesh")
                     : format == 1 ? read_tetgen_from_strings(a, "f.node", ele, "f.ele")

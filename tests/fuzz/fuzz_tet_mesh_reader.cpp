@@ -10,6 +10,7 @@
 
 #include "common/error.hpp"
 #include "common/log.hpp"
+#include "common/tet_geometry.hpp"
 #include "formats/tet_mesh_io.hpp"
 
 namespace {
@@ -50,12 +51,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             || (mesh.tets.minCoeff() >= 0 && mesh.tets.maxCoeff() < mesh.num_vertices()),
         "tet indices in range");
     for (mat::Index t = 0; t < mesh.num_tets(); ++t) {
-        const mat::Vec3 x0 = mesh.positions.row(mesh.tets(t, 0));
-        const mat::Vec3 a = mesh.positions.row(mesh.tets(t, 1)).transpose() - x0;
-        const mat::Vec3 b = mesh.positions.row(mesh.tets(t, 2)).transpose() - x0;
-        const mat::Vec3 c = mesh.positions.row(mesh.tets(t, 3)).transpose() - x0;
-        const double det = a.dot(b.cross(c));
-        check(!(det < 0.0), "positive orientation");
+        check(!(mat::tet_orientation(mesh, t) < 0.0), "positive orientation");
     }
     return 0;
 }

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "common/error.hpp"
+#include "common/tet_geometry.hpp"
 
 namespace mat::test {
 
@@ -17,13 +18,8 @@ int grid_node(const GridTetOptions& options, int i, int j, int k)
 VecX signed_tet_volumes(const TetMesh& mesh)
 {
     VecX volumes(mesh.num_tets());
-    for (Index t = 0; t < mesh.num_tets(); ++t) {
-        const Vec3 x0 = mesh.positions.row(mesh.tets(t, 0));
-        Mat3 edges;
-        for (int c = 0; c < 3; ++c)
-            edges.col(c) = mesh.positions.row(mesh.tets(t, c + 1)).transpose() - x0;
-        volumes[t] = edges.determinant() / 6.0;
-    }
+    for (Index t = 0; t < mesh.num_tets(); ++t)
+        volumes[t] = tet_orientation(mesh, t) / 6.0;
     return volumes;
 }
 

@@ -1,12 +1,16 @@
 #pragma once
 // Text-reading helpers shared by the medial (.ma) and tet mesh (.mesh, .node/.ele) readers and
-// writers: a line cursor that strips '#' comments, strict number parsing, and whole-file I/O.
-// Internal to formats/: nothing outside the readers should need it.
+// writers: a line cursor that strips '#' comments, a parser base that reports errors by line,
+// strict number parsing, and whole-file I/O. Internal to formats/: nothing outside the readers
+// should need it.
 
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
+
+#include "common/error.hpp"
 
 namespace mat::text_io {
 
@@ -32,6 +36,33 @@ private:
     int m_line_number = 0;
     int m_next_line_number = 1;
     std::vector<std::string_view> m_tokens;
+};
+
+/// Base of the line-oriented parsers: a LineReader over the text and the name errors cite.
+class LineParser {
+public:
+    /// `text` and `name` must outlive the parser.
+    LineParser(std::string_view text, const std::string& name)
+        : m_reader(text)
+        , m_name(name)
+    {
+    }
+
+    /// Throws mat::Error "<name>: line <current line>: <message>".
+    template <typename... Args>
+    [[noreturn]] void fail(fmt::format_string<Args...> format, Args&&... args) const
+    {
+        throw_error("{}: line {}: {}", m_name, m_reader.line_number(),
+            fmt::format(format, std::forward<Args>(args)...));
+    }
+
+protected:
+    /// Token `k` of the current line as a finite number; fails with "value 'x' of field
+    /// '<field>' is not a number" (or "is not finite").
+    double real_field(std::size_t k, const char* field) const;
+
+    LineReader m_reader;
+    const std::string& m_name;
 };
 
 /// Parses a whole token as a decimal integer (optional sign). False if anything is left over,

@@ -1,4 +1,4 @@
-#include "formats/medial_io_text.hpp"
+#include "formats/text_io.hpp"
 
 #include <cerrno>
 #include <charconv>
@@ -64,6 +64,17 @@ bool LineReader::next()
     m_tokens.clear();
     m_line_number = m_next_line_number;
     return false;
+}
+
+double LineParser::real_field(std::size_t k, const char* field) const
+{
+    const std::string_view token = m_reader.tokens()[k];
+    double value = 0.0;
+    if (!parse_real(token, value))
+        fail("value {} of field '{}' is not a number", quote(token), field);
+    if (!std::isfinite(value))
+        fail("value {} of field '{}' is not finite", quote(token), field);
+    return value;
 }
 
 bool parse_integer(std::string_view token, std::int64_t& value)
