@@ -6,6 +6,7 @@
 
 #include "common/bake_data.hpp"
 #include "common/timer.hpp"
+#include "preprocess/meshing/cgal_mesh3.hpp"
 
 namespace mat {
 

@@ -25,7 +25,7 @@ CLI::App* add_sample_command(CLI::App& app, SampleCommandOptions& options)
             "Surface facet size as a fraction of the bbox diagonal (0: the sample's "
             "default)")
         ->capture_default_str();
-    sample->add_option("--detail", options.detail, "Creature only: 1, 2 or 3 (more limb spheres)")
+    sample->add_option("--detail", options.detail, "Creature only: 1 to 5 (49 to 145 spheres)")
         ->capture_default_str();
     return sample;
 }

@@ -201,8 +201,8 @@ std::vector<std::string> list_samples()
 MedialMesh make_sample_medial(const std::string& name, int detail)
 {
     const SampleKind& kind = sample_kind(name);
-    if (detail < 1 || detail > 3)
-        throw_error("sample '{}': detail must be 1, 2 or 3, got {}", name, detail);
+    if (detail < 1 || detail > 5)
+        throw_error("sample '{}': detail must be 1 to 5, got {}", name, detail);
     return kind.medial(detail);
 }
 

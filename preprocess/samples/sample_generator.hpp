@@ -15,7 +15,7 @@ struct SampleOptions {
     /// sample's default: 0.03 (capsule, rounded_bar: 1.2k-1.7k triangles), 0.025 (torus: 2k),
     /// 0.01 (creature: 7.7k triangles, fine enough to tetrahedralize into 2k-50k tets).
     double facet_size = 0.0;
-    /// Creature only: 1, 2 or 3. Limbs are chains of 6, 10 or 14 cones (49, 73 or 97 spheres).
+    /// Creature only: 1 to 5. Limbs are chains of 4 d + 2 cones: 49, 73, 97, 121 or 145 spheres.
     int detail = 2;
 };
 
@@ -30,12 +30,12 @@ struct Sample {
 std::vector<std::string> list_samples();
 
 /// The medial mesh of a sample alone (cheap: no surface meshing).
-/// Throws mat::Error on an unknown name (listing the known ones) or a detail outside [1, 3].
+/// Throws mat::Error on an unknown name (listing the known ones) or a detail outside [1, 5].
 MedialMesh make_sample_medial(const std::string& name, int detail = 2);
 
 /// The medial mesh and its envelope surface (CGAL Mesh_3 on the envelope's signed distance,
 /// vertices projected onto the zero set). Deterministic.
-/// Throws mat::Error on an unknown name, a detail outside [1, 3] or a facet size outside
+/// Throws mat::Error on an unknown name, a detail outside [1, 5] or a facet size outside
 /// (0, 0.2].
 Sample make_sample(const std::string& name, const SampleOptions& options = {});
 

@@ -52,7 +52,7 @@ namespace {
 
     TEST_P(EverySample, MedialMeshIsValid)
     {
-        for (int detail = 1; detail <= 3; ++detail) {
+        for (int detail = 1; detail <= 5; ++detail) {
             const MedialMesh medial = make_sample_medial(GetParam(), detail);
             ASSERT_GT(medial.num_spheres(), 0);
             EXPECT_GT(medial.radii.minCoeff(), 0.0);
@@ -149,7 +149,8 @@ namespace {
     TEST(Samples, RejectsBadRequests)
     {
         EXPECT_THROW(make_sample("teapot"), Error);
-        EXPECT_THROW(make_sample_medial("creature", 4), Error);
+        EXPECT_THROW(make_sample_medial("creature", 6), Error);
+        EXPECT_THROW(make_sample_medial("creature", 0), Error);
         SampleOptions options;
         options.facet_size = 0.5;
         EXPECT_THROW(make_sample("capsule", options), Error);
