@@ -1,0 +1,131 @@
+// The local step: the per-tet projections against their definitions (closest rotation by brute
+// force, polar decomposition, the volume constraint's optimality conditions) and the assembled
+// right-hand side against the bake's Laplacian at rest.
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <gtest/gtest.h>
+
+#include "runtime/model.hpp"
+#include "runtime/pd/local_step.hpp"
+#include "tests/runtime/runtime_test_models.hpp"
+
+namespace mat {
+namespace {
+
+    Mat3 random_rotation(std::mt19937& rng)
+    {
+        std::normal_distribution<double> normal;
+        Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
+        return q.normalized().toRotationMatrix();
+    }
+
+    Mat3 random_matrix(std::mt19937& rng, double spread)
+    {
+        std::uniform_real_distribution<double> uniform(-spread, spread);
+        Mat3 m;
+        for (int i = 0; i < 9; ++i)
+            m(i) = uniform(rng);
+        return m;
+    }
+
+    void expect_rotation(const Mat3& r)
+    {
+        EXPECT_LT((r.transpose() * r - Mat3::Identity()).norm(), 1e-12);
+        EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+    }
+
+    TEST(ProjectTet, RotationIsAFixedPoint)
+    {
+        std::mt19937 rng(7);
+        for (int trial = 0; trial < 50; ++trial) {
+            const Mat3 r = random_rotation(rng);
+            const TetProjection p = project_tet(r, 0.01);
+            EXPECT_LT((p.rotation - r).norm(), 1e-12);
+            EXPECT_EQ(p.volume, r); // det 1 is inside the band: F itself
+        }
+    }
+
+    TEST(ProjectTet, RotationIsThePolarFactor)
+    {
+        std::mt19937 rng(11);
+        for (int trial = 0; trial < 50; ++trial) {
+            Mat3 f = Mat3::Identity() + random_matrix(rng, 0.6);
+            if (f.determinant() <= 0.1)
+                continue;
+            const TetProjection p = project_tet(f, 0.01);
+            expect_rotation(p.rotation);
+            // F = R S with S symmetric positive definite.
+            const Mat3 s = p.rotation.transpose() * f;
+            EXPECT_LT((s - s.transpose()).norm(), 1e-10);
+            EXPECT_GT(Eigen::SelfAdjointEigenSolver<Mat3>(0.5 * (s + s.transpose()))
+                          .eigenvalues()
+                          .minCoeff(),
+                0.0);
+        }
+    }
+
+    TEST(ProjectTet, InvertedTetGetsTheClosestProperRotation)
+    {
+        std::mt19937 rng(13);
+        for (int trial = 0; trial < 20; ++trial) {
+            const Mat3 f = random_rotation(rng) * Eigen::Vector3d(1.2, 0.9, -0.3).asDiagonal()
+                * random_rotation(rng);
+            ASSERT_LT(f.determinant(), 0.0);
+            const TetProjection p = project_tet(f, 0.01);
+            expect_rotation(p.rotation);
+            const double best = (f - p.rotation).norm();
+            for (int sample = 0; sample < 2000; ++sample)
+                EXPECT_GE((f - random_rotation(rng)).norm(), best - 1e-12);
+        }
+    }
+
+    TEST(ProjectTet, VolumeIsClampedOptimally)
+    {
+        std::mt19937 rng(17);
+        const double eps = 0.05;
+        for (int trial = 0; trial < 100; ++trial) {
+            const Mat3 f = Mat3::Identity() + random_matrix(rng, 0.8);
+            const TetProjection p = project_tet(f, eps);
+            const double det_f = f.determinant();
+            const double det_p = p.volume.determinant();
+            if (det_f >= 1.0 - eps && det_f <= 1.0 + eps) {
+                EXPECT_EQ(p.volume, f);
+                continue;
+            }
+            const double expected = det_f > 1.0 + eps ? 1.0 + eps : 1.0 - eps;
+            EXPECT_NEAR(det_p, expected, 1e-12) << "trial " << trial << " det F " << det_f;
+            if (det_f <= 0.0)
+                continue; // inverted: the constraint set is not convex, only feasibility holds
+            // Optimality on the singular values: d - s is parallel to grad(prod d).
+            const Eigen::JacobiSVD<Mat3> svd(f);
+            const Eigen::JacobiSVD<Mat3> svd_p(p.volume);
+            const Vec3 s = svd.singularValues();
+            const Vec3 d = svd_p.singularValues();
+            const Vec3 gradient(d(1) * d(2), d(0) * d(2), d(0) * d(1));
+            EXPECT_LT((d - s).cross(gradient).norm(), 1e-9 * (1.0 + (d - s).norm()))
+                << "s " << s.transpose() << " d " << d.transpose();
+        }
+    }
+
+    TEST(LocalStep, AtRestGivesTheStiffnessTimesTheRestPositions)
+    {
+        test::GridTetOptions grid;
+        grid.nx = grid.ny = grid.nz = 3;
+        grid.jitter = 0.15;
+        const BakeData bake = test::make_identity_bake(grid);
+        ModelOptions options;
+        const Model model(bake, Material {}, options);
+        LocalStep local(model);
+        MatX3 rhs(model.num_nodes(), 3);
+        local.compute(model, model.rest_positions(), rhs);
+        // At rest every projection is the identity, so rhs = sum_e w_e G_e^T I = L_w X.
+        const double scale = model.stiffness_rest().norm();
+        EXPECT_LT((rhs - model.stiffness_rest()).norm(), 1e-12 * scale);
+    }
+
+} // namespace
+} // namespace mat

@@ -1,0 +1,136 @@
+// Projective dynamics step benchmark (not a test): ms per step of the semi-reduced and the
+// full-space solver on a jittered unit-cube grid of 20 x 20 x 20 cells (48k tets, 9261 nodes),
+// 10 iterations per step, with linear handles (4 columns each) on a coarse lattice whose weights
+// are normalized squared trilinear hats (8 handles per node, like a bake with K = 8).
+//
+//   pd_step_bench [handles_per_axis=5] [steps=10] [volume_tolerance=0.01]
+//
+// Prints a plain table; compare figures run to run (the VM is noisy: +-10%).
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "common/parallel.hpp"
+#include "common/timer.hpp"
+#include "preprocess/pd/pd_operators.hpp"
+#include "runtime/model.hpp"
+#include "runtime/pd/solver.hpp"
+#include "tests/support/grid_tets.hpp"
+
+namespace {
+
+using namespace mat;
+
+/// Linear handles on an a x a x a lattice over the unit cube: column 4 j + c holds
+/// w_j(x) * (1, x - c_j) with w_j the normalized squared trilinear hat of lattice point j.
+SparseRowMatrix lattice_basis(const MatX3& positions, int a)
+{
+    const double spacing = 1.0 / (a - 1);
+    std::vector<Eigen::Triplet<double>> triplets;
+    for (Index i = 0; i < positions.rows(); ++i) {
+        int cell[3];
+        double frac[3];
+        for (int d = 0; d < 3; ++d) {
+            const double u = std::clamp(positions(i, d) / spacing, 0.0, a - 1.0);
+            cell[d] = std::min(static_cast<int>(u), a - 2);
+            frac[d] = u - cell[d];
+        }
+        // Squared trilinear hats, normalized: a partition of unity without linear precision
+        // (trilinear hats reproduce x exactly, which makes the linear columns dependent).
+        int handle[8];
+        double weight[8];
+        double total = 0.0;
+        for (int corner = 0; corner < 8; ++corner) {
+            int idx[3];
+            double w = 1.0;
+            for (int d = 0; d < 3; ++d) {
+                const int bit = (corner >> d) & 1;
+                idx[d] = cell[d] + bit;
+                w *= bit ? frac[d] : 1.0 - frac[d];
+            }
+            handle[corner] = idx[0] + a * (idx[1] + a * idx[2]);
+            weight[corner] = w * w;
+            total += w * w;
+        }
+        for (int corner = 0; corner < 8; ++corner) {
+            const int j = handle[corner];
+            const double w = weight[corner] / total;
+            const double c[3]
+                = { (j % a) * spacing, ((j / a) % a) * spacing, (j / (a * a)) * spacing };
+            triplets.emplace_back(i, 4 * j, w);
+            for (int d = 0; d < 3; ++d)
+                triplets.emplace_back(i, 4 * j + 1 + d, w * (positions(i, d) - c[d]));
+        }
+    }
+    SparseRowMatrix basis(positions.rows(), 4 * a * a * a);
+    basis.setFromTriplets(triplets.begin(), triplets.end());
+    basis.prune(0.0);
+    return basis;
+}
+
+template <typename Solver>
+double median_ms_per_step(Solver& solver, const Model& model, const State& start, int steps)
+{
+    std::vector<double> times;
+    State a = start, b;
+    for (int s = 0; s < steps; ++s) {
+        Timer timer;
+        solver.step(model, a, b, model.time_step());
+        times.push_back(1e3 * timer.seconds());
+        std::swap(a, b);
+    }
+    std::nth_element(times.begin(), times.begin() + steps / 2, times.end());
+    return times[steps / 2];
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    const int handles_per_axis = argc > 1 ? std::atoi(argv[1]) : 5;
+    const int steps = argc > 2 ? std::max(1, std::atoi(argv[2])) : 10;
+
+    test::GridTetOptions grid;
+    grid.nx = grid.ny = grid.nz = 20;
+    grid.jitter = 0.15;
+    BakeData bake;
+    bake.tet_mesh = test::make_grid_tets(grid);
+    const Index n = bake.tet_mesh.num_vertices();
+    const TetRestData rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
+    bake.dm_inverse = rest.dm_inverse;
+    bake.rest_volumes = rest.volumes;
+    bake.lumped_mass = lumped_masses(n, bake.tet_mesh.tets, rest.volumes);
+    bake.laplacian = assemble_laplacian(n, bake.tet_mesh.tets, rest);
+    bake.basis = lattice_basis(bake.tet_mesh.positions, handles_per_axis);
+    const Eigen::SparseMatrix<double> basis = bake.basis;
+    const Eigen::SparseMatrix<double> laplacian = bake.laplacian;
+    bake.reduced_laplacian = MatX(basis.transpose() * laplacian * basis);
+    bake.reduced_mass = MatX(basis.transpose() * bake.lumped_mass.asDiagonal() * basis);
+
+    Timer build;
+    ModelOptions model_options;
+    if (argc > 3)
+        model_options.volume_tolerance = std::atof(argv[3]);
+    const Model model(bake, Material {}, model_options);
+    const double model_ms = 1e3 * build.seconds();
+    State start = State::at_rest(model);
+    for (Index i = 0; i < n; ++i) {
+        const Vec3 p = start.positions.row(i).transpose() - Vec3(0.5, 0.5, 0.5);
+        start.velocities.row(i) = Vec3(6.0 * p.x(), 0.0, 0.0).cross(p).transpose();
+    }
+    std::printf("tets %ld, nodes %ld, columns k = %ld, nnz(B) = %ld, model build %.1f ms\n",
+        static_cast<long>(model.num_tets()), static_cast<long>(n),
+        static_cast<long>(model.num_columns()), static_cast<long>(bake.basis.nonZeros()), model_ms);
+    std::printf("%-8s %12s %12s\n", "threads", "reduced ms", "full ms");
+    for (const int threads : { 1, 2 }) {
+        set_threads(threads);
+        SemiReducedSolver reduced(model);
+        FullSolver full(model);
+        const double reduced_ms = median_ms_per_step(reduced, model, start, steps);
+        const double full_ms = median_ms_per_step(full, model, start, steps);
+        std::printf("%-8d %12.2f %12.2f\n", threads, reduced_ms, full_ms);
+    }
+    return 0;
+}
