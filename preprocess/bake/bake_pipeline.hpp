@@ -14,7 +14,7 @@ struct BakeOptions {
     std::string surface; ///< closed surface file
     std::string medial; ///< .ma file
     std::string output; ///< .h5 bake file
-    double tet_size = 0.04; ///< tet size as a fraction of the bbox diagonal
+    double tet_size = k_default_tet_size; ///< tet size as a fraction of the bbox diagonal
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
     int weights_per_node = 8; ///< K: largest weights kept per node
     double region_alpha = 0.5; ///< handle region: nodes within alpha * radius of the center
