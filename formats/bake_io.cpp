@@ -115,7 +115,7 @@ namespace {
 BakeData read_bake(const std::string& path)
 {
     H5Reader in(path);
-    in.require_format(bake_format_name, bake_format_version, "this mat-run");
+    in.require_format(bake_format_name, bake_format_version, "this build of mat-bake and mat-run");
     const std::string& f = path;
     BakeData b;
     b.length_unit = in.read_string_attribute("/", "length_unit");
