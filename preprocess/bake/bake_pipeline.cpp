@@ -56,24 +56,15 @@ Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, 
 namespace {
 
     // A stage: a progress line on a terminal, a log line, and a row of the report.
-    template <typename Body> auto stage(BakeReport& report, const char* name, Body&& body)
+    template <typename Body> void stage(BakeReport& report, const char* name, Body&& body)
     {
         Timer timer;
         ProgressBar bar(name, 1);
-        if constexpr (std::is_void_v<decltype(body())>) {
-            body();
-            bar.advance();
-            bar.finish();
-            report.stages.add(name, timer.seconds());
-            logger().debug("{}: {:.3f} s", name, timer.seconds());
-        } else {
-            auto result = body();
-            bar.advance();
-            bar.finish();
-            report.stages.add(name, timer.seconds());
-            logger().debug("{}: {:.3f} s", name, timer.seconds());
-            return result;
-        }
+        body();
+        bar.advance();
+        bar.finish();
+        report.stages.add(name, timer.seconds());
+        logger().debug("{}: {:.3f} s", name, timer.seconds());
     }
 
     // Largest relative error of B reproducing random affine fields at every node.

@@ -48,13 +48,6 @@ namespace {
         return { std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>() };
     }
 
-    template <typename A> void expect_same(const A& a, const A& b, const char* what)
-    {
-        ASSERT_EQ(a.rows(), b.rows()) << what;
-        ASSERT_EQ(a.cols(), b.cols()) << what;
-        EXPECT_TRUE(a.isApprox(b, 0.0) || (a.size() == 0) || a == b) << what;
-    }
-
     void expect_same_sparse(const SparseRowMatrix& a, const SparseRowMatrix& b, const char* what)
     {
         ASSERT_EQ(a.rows(), b.rows()) << what;

@@ -13,6 +13,7 @@
 #include "formats/medial_io.hpp"
 #include "formats/surface_io.hpp"
 #include "formats/surface_validation.hpp"
+#include "preprocess/medial/medial_fit.hpp"
 #include "preprocess/samples/sample_generator.hpp"
 
 namespace mat {
@@ -24,23 +25,6 @@ namespace {
         SampleOptions options;
         options.facet_size = name == "creature" ? 0.03 : 0.06;
         return options;
-    }
-
-    /// The winding number of a closed surface around x (Van Oosterom and Strackee 1983, the
-    /// solid angle of a triangle).
-    double winding_number(const SurfaceMesh& surface, const Vec3& x)
-    {
-        double total = 0.0;
-        for (Index f = 0; f < surface.num_faces(); ++f) {
-            const Vec3 a = surface.positions.row(surface.faces(f, 0)).transpose() - x;
-            const Vec3 b = surface.positions.row(surface.faces(f, 1)).transpose() - x;
-            const Vec3 c = surface.positions.row(surface.faces(f, 2)).transpose() - x;
-            const double la = a.norm(), lb = b.norm(), lc = c.norm();
-            const double numerator = a.dot(b.cross(c));
-            const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-            total += 2.0 * std::atan2(numerator, denominator);
-        }
-        return total / (4.0 * M_PI);
     }
 
     double diagonal(const MedialMesh& medial)

@@ -7,7 +7,7 @@
 
 namespace mat::test {
 
-BakeData make_identity_bake(const GridTetOptions& options)
+BakeData make_grid_bake(const GridTetOptions& options)
 {
     BakeData bake;
     bake.tet_mesh = make_grid_tets(options);
@@ -17,6 +17,13 @@ BakeData make_identity_bake(const GridTetOptions& options)
     bake.rest_volumes = rest.volumes;
     bake.lumped_mass = lumped_masses(n, bake.tet_mesh.tets, rest.volumes);
     bake.laplacian = assemble_laplacian(n, bake.tet_mesh.tets, rest);
+    return bake;
+}
+
+BakeData make_identity_bake(const GridTetOptions& options)
+{
+    BakeData bake = make_grid_bake(options);
+    const Index n = bake.tet_mesh.num_vertices();
     SparseRowMatrix identity(n, n);
     identity.setIdentity();
     bake.basis = identity;

@@ -9,6 +9,10 @@
 
 namespace mat::test {
 
+/// A BakeData for the grid of `options` with its tet mesh and PD data (Dm^-1, volumes, lumped
+/// masses, Laplacian) filled; no basis.
+BakeData make_grid_bake(const GridTetOptions& options);
+
 /// A BakeData for the grid of `options` whose basis is the identity (every node its own handle):
 /// basis = I (n x n), reduced_laplacian = L, reduced_mass = M. Only the fields the runtime reads
 /// are filled.

@@ -17,7 +17,7 @@
 #include "preprocess/pd/pd_operators.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/solver.hpp"
-#include "tests/support/grid_tets.hpp"
+#include "tests/runtime/runtime_test_models.hpp"
 
 namespace {
 
@@ -95,14 +95,8 @@ int main(int argc, char** argv)
     test::GridTetOptions grid;
     grid.nx = grid.ny = grid.nz = 20;
     grid.jitter = 0.15;
-    BakeData bake;
-    bake.tet_mesh = test::make_grid_tets(grid);
+    BakeData bake = test::make_grid_bake(grid);
     const Index n = bake.tet_mesh.num_vertices();
-    const TetRestData rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
-    bake.dm_inverse = rest.dm_inverse;
-    bake.rest_volumes = rest.volumes;
-    bake.lumped_mass = lumped_masses(n, bake.tet_mesh.tets, rest.volumes);
-    bake.laplacian = assemble_laplacian(n, bake.tet_mesh.tets, rest);
     bake.basis = lattice_basis(bake.tet_mesh.positions, handles_per_axis);
     const Eigen::SparseMatrix<double> basis = bake.basis;
     const Eigen::SparseMatrix<double> laplacian = bake.laplacian;
