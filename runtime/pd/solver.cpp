@@ -1,178 +1,206 @@
 #include "runtime/pd/solver.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
+#include "common/timer.hpp"
 
 namespace mat {
 
 namespace {
 
-    void check_step(const Model& model, const SolverOptions& options, const State& in,
-        const State& out, double dt, const char* solver)
+    void check_options(const SolverOptions& options)
     {
-        const Index n = model.num_nodes();
-        if (in.positions.rows() != n || in.velocities.rows() != n)
-            throw_error("{}: state has {} positions and {} velocities, the model has {} nodes",
-                solver, in.positions.rows(), in.velocities.rows(), n);
-        if (&in == &out)
-            throw_error("{}: the input and output states must be different objects", solver);
-        if (std::abs(dt - model.time_step()) > 1e-12 * model.time_step())
-            throw_error("{}: time step {} differs from the model's {} (its matrices are factored "
-                        "for it)",
-                solver, dt, model.time_step());
         if (options.iterations < 1)
-            throw_error("{}: iterations {} must be at least 1", solver, options.iterations);
+            throw_error("solver: iterations {} must be at least 1", options.iterations);
         if (!(options.damping >= 0.0 && options.damping < 1.0))
-            throw_error("{}: damping {} must be in [0, 1)", solver, options.damping);
-    }
-
-    /// s = x_n + h v_n + h^2 g  n x 3 (Bouaziz et al. 2014, eq. 9 with f_ext = M g).
-    void inertia_target(const State& in, const Vec3& gravity, double h, MatX3& s)
-    {
-        const Eigen::RowVector3d shift = (h * h) * gravity.transpose();
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, s.rows()), [&](const tbb::blocked_range<Index>& range) {
-                for (Index i = range.begin(); i != range.end(); ++i)
-                    s.row(i) = in.positions.row(i) + h * in.velocities.row(i) + shift;
-            });
-    }
-
-    void finish_step(const State& in, State& out, double h, double damping)
-    {
-        const double scale = (1.0 - damping) / h;
-        out.velocities.resize(in.positions.rows(), 3);
-        tbb::parallel_for(tbb::blocked_range<Index>(0, in.positions.rows()),
-            [&](const tbb::blocked_range<Index>& range) {
-                for (Index i = range.begin(); i != range.end(); ++i)
-                    out.velocities.row(i) = scale * (out.positions.row(i) - in.positions.row(i));
-            });
-        if (!out.positions.allFinite())
-            throw_error("projective dynamics: the positions are not finite after the step");
+            throw_error("solver: damping {} must be in [0, 1)", options.damping);
+        if (!(options.contact_margin >= 0.0))
+            throw_error("solver: contact margin {} must be non-negative", options.contact_margin);
+        for (std::size_t p = 0; p < options.planes.size(); ++p) {
+            const PlaneCollider& plane = options.planes[p];
+            if (!plane.point.allFinite() || std::abs(plane.normal.norm() - 1.0) > 1e-9)
+                throw_error("solver: plane {} needs a finite point and a unit normal", p);
+            if (!(plane.friction >= 0.0) || !std::isfinite(plane.friction))
+                throw_error("solver: plane {} friction {} must be non-negative", p, plane.friction);
+        }
     }
 
 } // namespace
 
-SemiReducedSolver::SemiReducedSolver(const Model& model, const SolverOptions& options)
-    : m_options(options)
+PdSolver::PdSolver(
+    const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global)
+    : m_model(&model)
+    , m_options(options)
+    , m_global(std::move(global))
     , m_local(model)
+    , m_pin_targets(model.pin_targets())
     , m_inertia(model.num_nodes(), 3)
     , m_rhs(model.num_nodes(), 3)
-    , m_q(model.num_columns(), 3)
 {
-}
-
-// Global step in displacement form (Lan et al. 2020). The full-space global step solves
-//   A x = M s / h^2 + r + P p,   A = L_w + M / h^2 + P,
-// with r = sum_e w_e G_e^T P_e^T (local step), P the pin weights (diagonal) and p their
-// targets. Write x = X + u with the displacement u = B q restricted to the basis (U = B (x) I3
-// acts column by column on n x 3 data) and require the residual to be orthogonal to the basis
-// (Galerkin): B^T A (X + B q) = B^T (M s / h^2 + r + P p), i.e.
-//   S q = B^T (M (s - X) / h^2 + r - L_w X + P (p - X)),   S = B^T A B,
-// using A X = L_w X + M X / h^2 + P X. L_w X is constant (Model::stiffness_rest). Then x = X + B q.
-void SemiReducedSolver::step(const Model& model, const State& in, State& out, double dt)
-{
-    check_step(model, m_options, in, out, dt, "semi-reduced solver");
-    const Index n = model.num_nodes();
-    const Index k = model.num_columns();
-    MAT_CHECK(m_inertia.rows() == n && m_q.rows() == k,
-        "semi-reduced solver: workspace made "
-        "for another model");
-    const double h = dt;
-    const double inv_h2 = 1.0 / (h * h);
-    const MatX3& rest = model.rest_positions();
-    const VecX& masses = model.masses();
-    const MatX3& stiffness_rest = model.stiffness_rest();
-    const SparseRowMatrix& basis = model.basis();
-    const SparseRowMatrix& basis_t = model.basis_transpose();
-
-    inertia_target(in, m_options.gravity, h, m_inertia);
-    out.positions = m_inertia;
-
-    for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
-        m_local.compute(model, out.positions, m_rhs);
-        // y = M (s - X) / h^2 + r - L_w X  (pins added below), in place in m_rhs.
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-                for (Index i = range.begin(); i != range.end(); ++i)
-                    m_rhs.row(i) += (masses(i) * inv_h2) * (m_inertia.row(i) - rest.row(i))
-                        - stiffness_rest.row(i);
-            });
-        const auto& pins = model.pinned_nodes();
-        for (std::size_t p = 0; p < pins.size(); ++p)
-            m_rhs.row(pins[p]) += model.pin_weight()
-                * (model.pin_targets().row(static_cast<Index>(p)) - rest.row(pins[p]));
-        // B^T y, one row of B^T (a basis column) per task: O(nnz(B)), fixed summation order.
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, k), [&](const tbb::blocked_range<Index>& range) {
-                for (Index a = range.begin(); a != range.end(); ++a) {
-                    Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
-                    for (SparseRowMatrix::InnerIterator it(basis_t, a); it; ++it)
-                        acc += it.value() * m_rhs.row(it.index());
-                    m_q.row(a) = acc;
-                }
-            });
-        for (int c = 0; c < 3; ++c) {
-            auto column = m_q.col(c);
-            model.reduced_system().solveInPlace(column);
-        }
-        // x = X + B q.
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-                for (Index i = range.begin(); i != range.end(); ++i) {
-                    Eigen::RowVector3d acc = rest.row(i);
-                    for (SparseRowMatrix::InnerIterator it(basis, i); it; ++it)
-                        acc += it.value() * m_q.row(it.index());
-                    out.positions.row(i) = acc;
-                }
-            });
+    check_options(options);
+    if (!options.planes.empty()) {
+        m_boundary = boundary_nodes(model.tets(), model.num_nodes());
+        const MatX3& rest = model.rest_positions();
+        const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+        m_margin = options.contact_margin * diagonal;
+        m_options.contact.tolerance = options.contact.tolerance * diagonal;
     }
-    finish_step(in, out, h, m_options.damping);
 }
 
-FullSolver::FullSolver(const Model& model, const SolverOptions& options)
-    : m_options(options)
-    , m_local(model)
-    , m_inertia(model.num_nodes(), 3)
-    , m_rhs(model.num_nodes(), 3)
+void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
 {
-    m_cholesky.compute(model.full_system(), "full-space projective dynamics system");
+    if (targets.rows() != m_pin_targets.rows())
+        throw_error("solver: {} pin targets given for {} pinned nodes", targets.rows(),
+            m_pin_targets.rows());
+    if (!targets.allFinite())
+        throw_error("solver: the pin targets are not finite");
+    m_pin_targets = targets;
 }
 
-// Full-space global step (Bouaziz et al. 2014, eq. 13 with pins):
-//   (L_w + M / h^2 + P) x = M s / h^2 + r + P p.
-void FullSolver::step(const Model& model, const State& in, State& out, double dt)
+// Candidates: boundary nodes within the margin of a plane at the start of the step or at the
+// inertia target (the iterates move from s towards an equilibrium near both).
+void PdSolver::find_contacts(const Model& model, const State& in)
 {
-    check_step(model, m_options, in, out, dt, "full-space solver");
+    m_pairs.clear();
+    m_pair_nodes.clear();
+    m_unique_nodes.clear();
+    for (const int i : m_boundary) {
+        bool any = false;
+        for (std::size_t p = 0; p < m_options.planes.size(); ++p) {
+            const PlaneCollider& plane = m_options.planes[p];
+            const double at_start = plane.normal.dot(in.positions.row(i).transpose() - plane.point);
+            const double at_target = plane.normal.dot(m_inertia.row(i).transpose() - plane.point);
+            if (std::min(at_start, at_target) < m_margin) {
+                m_pairs.push_back(ContactPair { i, static_cast<int>(p) });
+                m_pair_nodes.push_back(i);
+                any = true;
+            }
+        }
+        if (any)
+            m_unique_nodes.push_back(i);
+    }
+    const Index m = static_cast<Index>(m_pairs.size());
+    m_global->prepare_nodes(m_unique_nodes);
+    if (m_coupling.rows() != m || m_contact_free.rows() != m) {
+        m_coupling.resize(m, m);
+        m_contact_free.resize(m, 3);
+        m_contact_start.resize(m, 3);
+        m_contact_forces.resize(m, 3);
+        m_contact_positions.resize(m, 3);
+    }
+    for (Index b = 0; b < m; ++b)
+        for (Index a = 0; a < m; ++a)
+            m_coupling(a, b) = m_global->coupling(m_pairs[a].node, m_pairs[b].node);
+    for (Index a = 0; a < m; ++a)
+        m_contact_start.row(a) = in.positions.row(m_pairs[a].node);
+    m_contact_forces.setZero();
+}
+
+void PdSolver::step(const Model& model, const State& in, State& out, double dt)
+{
     const Index n = model.num_nodes();
-    MAT_CHECK(m_inertia.rows() == n && m_cholesky.rows() == n,
-        "full-space solver: workspace "
-        "made for another model");
+    if (&model != m_model)
+        throw_error("solver: step() was given another model than the solver was made for");
+    if (in.positions.rows() != n || in.velocities.rows() != n)
+        throw_error("solver: state has {} positions and {} velocities, the model has {} nodes",
+            in.positions.rows(), in.velocities.rows(), n);
+    if (&in == &out)
+        throw_error("solver: the input and output states must be different objects");
+    if (std::abs(dt - model.time_step()) > 1e-12 * model.time_step())
+        throw_error("solver: time step {} differs from the model's {} (its matrices are factored "
+                    "for it)",
+            dt, model.time_step());
     const double h = dt;
     const double inv_h2 = 1.0 / (h * h);
     const VecX& masses = model.masses();
+    const auto& pins = model.pinned_nodes();
+    m_report = StepReport {};
 
-    inertia_target(in, m_options.gravity, h, m_inertia);
+    // s = x_n + h v_n + h^2 g  (Bouaziz et al. 2014, eq. 9 with f_ext = M g).
+    Timer timer;
+    const Eigen::RowVector3d shift = (h * h) * m_options.gravity.transpose();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            m_inertia.row(i) = in.positions.row(i) + h * in.velocities.row(i) + shift;
+    });
     out.positions = m_inertia;
+    m_timings.rhs += timer.seconds();
+
+    timer.restart();
+    if (!m_options.planes.empty())
+        find_contacts(model, in);
+    m_timings.contact += timer.seconds();
+    const Index m = static_cast<Index>(m_pairs.size());
 
     for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
+        timer.restart();
         m_local.compute(model, out.positions, m_rhs);
+        m_timings.local += timer.seconds();
+
+        // b = M s / h^2 + r + P p  (Bouaziz et al. 2014, eq. 13 with pins).
+        timer.restart();
         tbb::parallel_for(
             tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
                 for (Index i = range.begin(); i != range.end(); ++i)
                     m_rhs.row(i) += (masses(i) * inv_h2) * m_inertia.row(i);
             });
-        const auto& pins = model.pinned_nodes();
         for (std::size_t p = 0; p < pins.size(); ++p)
-            m_rhs.row(pins[p])
-                += model.pin_weight() * model.pin_targets().row(static_cast<Index>(p));
-        m_cholesky.solve_in_place_rows(m_rhs);
-        out.positions = m_rhs;
+            m_rhs.row(pins[p]) += model.pin_weight() * m_pin_targets.row(static_cast<Index>(p));
+        m_timings.rhs += timer.seconds();
+
+        m_global->solve(m_rhs, m_timings);
+
+        if (m > 0) {
+            timer.restart();
+            for (Index a = 0; a < m; ++a)
+                m_contact_free.row(a) = m_global->node_position(m_pairs[a].node).transpose();
+            const ContactSolveResult result
+                = solve_plane_contacts(m_coupling, m_options.planes, m_pairs, m_contact_free,
+                    m_contact_start, m_contact_forces, m_contact_positions, m_options.contact);
+            m_report.contact_sweeps += result.sweeps;
+            m_global->add_forces(m_pair_nodes, m_contact_forces);
+            m_timings.contact += timer.seconds();
+        }
+        m_global->positions(out.positions, m_timings);
+        ++m_timings.iterations;
     }
-    finish_step(in, out, h, m_options.damping);
+
+    m_report.contacts = static_cast<int>(m);
+    for (Index a = 0; a < m; ++a) {
+        if (m_contact_forces.row(a).squaredNorm() > 0.0)
+            ++m_report.active_contacts;
+        const PlaneCollider& plane = m_options.planes[m_pairs[a].plane];
+        const double gap
+            = plane.normal.dot(out.positions.row(m_pairs[a].node).transpose() - plane.point);
+        m_report.max_penetration = std::max(m_report.max_penetration, -gap);
+    }
+
+    // v = (1 - damping) (x - x_n) / h.
+    const double scale = (1.0 - m_options.damping) / h;
+    out.velocities.resize(n, 3);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            out.velocities.row(i) = scale * (out.positions.row(i) - in.positions.row(i));
+    });
+    if (!out.positions.allFinite())
+        throw_error("projective dynamics: the positions are not finite after the step");
+    ++m_timings.steps;
+}
+
+SemiReducedSolver::SemiReducedSolver(const Model& model, const SolverOptions& options)
+    : PdSolver(model, options, std::make_unique<ReducedGlobalStep>(model))
+    , m_reduced(static_cast<const ReducedGlobalStep*>(&global_step()))
+{
+}
+
+FullSolver::FullSolver(const Model& model, const SolverOptions& options)
+    : PdSolver(model, options, std::make_unique<FullGlobalStep>(model))
+{
 }
 
 } // namespace mat

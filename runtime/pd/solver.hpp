@@ -1,22 +1,33 @@
 #pragma once
 // Implicit Euler projective dynamics (Bouaziz et al. 2014; semi-reduced as in Lan et al. 2020,
-// METHOD.md section 3). Both solvers share the full-space local step; the global step is either
-// the reduced k x k solve (SemiReducedSolver) or the full n x n CHOLMOD solve (FullSolver, the
-// accuracy reference and speed baseline).
+// METHOD.md section 3). Both solvers share the full-space local step and the contact solve; the
+// global step is either the reduced k x k solve (SemiReducedSolver) or the full n x n CHOLMOD
+// solve (FullSolver, the accuracy reference and speed baseline).
 //
 // Per step, with h = dt, M the lumped masses, g the gravity acceleration:
 //   s = x_n + h v_n + h^2 g                       (inertia target)
-//   x = s; repeat `iterations` times: local step at x, then global step -> x
-//   v_{n+1} = (1 - damping) (x - x_n) / h          (damping in [0, 1), 0 = none: a simple
-//                                                   per-step velocity scaling, not Rayleigh)
-// A solver holds only workspace (and, for FullSolver, the CHOLMOD factor); step() allocates
-// nothing once the workspace exists. A solver serves the one Model it was made for.
+//   contact candidates: boundary nodes within `contact_margin` of a plane at x_n or at s
+//   x = s; repeat `iterations` times:
+//     local step at x -> r;  global step A x = M s / h^2 + r + P p  (p: the pin targets now)
+//     contact solve on the global step's result (runtime/pd/contact.hpp): exact Signorini-
+//     Coulomb conditions against every plane, inside the iteration
+//   v_{n+1} = (1 - damping) (x - x_n) / h
+// Damping: `damping` in [0, 1) scales the velocity at the end of each step (0 = none). It is a
+// simple numerical damping (it removes the fraction `damping` of the velocity per step, so its
+// effect depends on dt), not Rayleigh damping. Implicit Euler itself dissipates energy too.
+// Pinned nodes follow the targets set with set_pin_targets() (kinematic motion), by default the
+// model's.
+// A solver holds only workspace (and, for FullSolver, the CHOLMOD factor) for the one Model it
+// was made for, which must outlive it; step() allocates nothing once the workspace exists,
+// except when the set of contact candidates grows past anything seen before.
 
 #include <memory>
+#include <vector>
 
 #include "common/eigen_types.hpp"
-#include "common/sparse_cholesky.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/contact.hpp"
+#include "runtime/pd/global_step.hpp"
 #include "runtime/pd/local_step.hpp"
 #include "runtime/state.hpp"
 
@@ -26,40 +37,76 @@ struct SolverOptions {
     int iterations = 10; ///< local/global iterations per step, >= 1
     Vec3 gravity = Vec3(0.0, -9.81, 0.0); ///< external acceleration, m/s^2
     double damping = 0.0; ///< velocity scaling per step, in [0, 1)
+    std::vector<PlaneCollider> planes; ///< ground planes (unit normals)
+    double contact_margin = 0.01; ///< candidate distance, relative to the rest bounding box
+    ContactSettings
+        contact; ///< contact solve settings (tolerance relative to the rest bounding box)
 };
 
-class SemiReducedSolver {
+/// What the last step did.
+struct StepReport {
+    int contacts = 0; ///< contact candidates (node, plane)
+    int active_contacts = 0; ///< candidates with a non-zero force after the last iteration
+    int contact_sweeps = 0; ///< Gauss-Seidel sweeps, summed over iterations
+    double max_penetration = 0.0; ///< deepest node below a plane at the end of the step (m)
+};
+
+class PdSolver {
 public:
-    SemiReducedSolver(const Model& model, const SolverOptions& options = {});
+    virtual ~PdSolver() = default;
 
     /// One time step from `in` to `out` (n x 3 each; `out` is resized if needed, and may not be
     /// `in`). `dt` must equal model.time_step(): the system matrix is factored for it.
     void step(const Model& model, const State& in, State& out, double dt);
 
-    /// The reduced coordinates q  k x 3 of the last step (x = X + B q).
-    const MatX& reduced_coordinates() const { return m_q; }
+    /// Targets of the pinned nodes for the next steps  #pinned x 3 (kinematic motion).
+    void set_pin_targets(const Eigen::Ref<const MatX3>& targets);
+    const MatX3& pin_targets() const { return m_pin_targets; }
+
+    const SolverOptions& options() const { return m_options; }
+    const SolverTimings& timings() const { return m_timings; }
+    const StepReport& last_report() const { return m_report; }
+
+protected:
+    PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global);
+    GlobalStep& global_step() { return *m_global; }
 
 private:
+    void find_contacts(const Model& model, const State& in);
+
+    const Model* m_model;
     SolverOptions m_options;
+    std::unique_ptr<GlobalStep> m_global;
     LocalStep m_local;
-    MatX3 m_inertia; ///< s  n x 3
-    MatX3 m_rhs; ///< local-step right-hand side, then the full-space residual y  n x 3
-    MatX m_q; ///< k x 3
-};
-
-class FullSolver {
-public:
-    /// Factors the model's full system with CHOLMOD (throws mat::Error if that fails).
-    FullSolver(const Model& model, const SolverOptions& options = {});
-
-    void step(const Model& model, const State& in, State& out, double dt);
-
-private:
-    SolverOptions m_options;
-    LocalStep m_local;
-    SparseCholesky m_cholesky;
+    MatX3 m_pin_targets; ///< #pinned x 3
     MatX3 m_inertia; ///< s  n x 3
     MatX3 m_rhs; ///< n x 3
+    SolverTimings m_timings;
+    StepReport m_report;
+    // Contact workspace.
+    std::vector<int> m_boundary; ///< boundary nodes, the contact candidates
+    double m_margin = 0.0; ///< absolute candidate distance (m)
+    std::vector<ContactPair> m_pairs;
+    std::vector<int> m_pair_nodes; ///< node of each pair (repeats allowed)
+    std::vector<int> m_unique_nodes;
+    MatX m_coupling; ///< m x m
+    MatX3 m_contact_free, m_contact_start, m_contact_forces, m_contact_positions; ///< m x 3
+};
+
+class SemiReducedSolver final : public PdSolver {
+public:
+    explicit SemiReducedSolver(const Model& model, const SolverOptions& options = {});
+    /// The reduced coordinates q  k x 3 of the last step (x = X + B q).
+    const MatX& reduced_coordinates() const { return m_reduced->reduced_coordinates(); }
+
+private:
+    const ReducedGlobalStep* m_reduced;
+};
+
+class FullSolver final : public PdSolver {
+public:
+    /// Factors the model's full system with CHOLMOD (throws mat::Error if that fails).
+    explicit FullSolver(const Model& model, const SolverOptions& options = {});
 };
 
 } // namespace mat

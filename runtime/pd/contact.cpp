@@ -1,0 +1,106 @@
+#include "runtime/pd/contact.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "common/error.hpp"
+
+namespace mat {
+
+std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_nodes)
+{
+    // A face is on the boundary iff exactly one tet has it: sort the sorted-corner triples.
+    std::vector<std::array<int, 3>> faces;
+    faces.reserve(4 * static_cast<std::size_t>(tets.rows()));
+    for (Index e = 0; e < tets.rows(); ++e)
+        for (int skip = 0; skip < 4; ++skip) {
+            std::array<int, 3> face {};
+            int f = 0;
+            for (int c = 0; c < 4; ++c)
+                if (c != skip)
+                    face[f++] = tets(e, c);
+            std::sort(face.begin(), face.end());
+            faces.push_back(face);
+        }
+    std::sort(faces.begin(), faces.end());
+    std::vector<char> on_boundary(num_nodes, 0);
+    for (std::size_t i = 0; i < faces.size();) {
+        std::size_t j = i + 1;
+        while (j < faces.size() && faces[j] == faces[i])
+            ++j;
+        if (j - i == 1)
+            for (const int v : faces[i])
+                on_boundary[v] = 1;
+        i = j;
+    }
+    std::vector<int> nodes;
+    for (Index i = 0; i < num_nodes; ++i)
+        if (on_boundary[i])
+            nodes.push_back(static_cast<int>(i));
+    return nodes;
+}
+
+ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
+    const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
+    const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
+    Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings)
+{
+    const Index m = static_cast<Index>(pairs.size());
+    MAT_CHECK(coupling.rows() == m && coupling.cols() == m && free_positions.rows() == m
+            && start_positions.rows() == m && forces.rows() == m && positions.rows() == m,
+        "contact solve: inconsistent sizes for {} contacts", m);
+    ContactSolveResult result;
+    if (m == 0)
+        return result;
+
+    // x = x_free + D f for the warm-start forces.
+    positions = free_positions;
+    for (Index d = 0; d < m; ++d)
+        if (forces.row(d).squaredNorm() > 0.0)
+            for (Index c = 0; c < m; ++c)
+                positions.row(c) += coupling(c, d) * forces.row(d);
+
+    for (int sweep = 0; sweep < settings.max_sweeps; ++sweep) {
+        double change = 0.0;
+        for (Index c = 0; c < m; ++c) {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            const double w = coupling(c, c);
+            if (!(w > 0.0))
+                continue; // a node the global step cannot move (cannot happen for SPD systems)
+            const Vec3 n = plane.normal;
+            const Vec3 x = positions.row(c).transpose();
+            const Vec3 f = forces.row(c).transpose();
+            const double f_n = n.dot(f);
+            const Vec3 f_t = f - f_n * n;
+
+            // Normal: the force that closes the gap (or none), Signorini.
+            const double gap = n.dot(x - plane.point);
+            const double f_n_new = std::max(0.0, f_n - gap / w);
+            // Tangent: the force that cancels the tangential displacement since the step
+            // start (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
+            Vec3 u = x - start_positions.row(c).transpose();
+            u -= n.dot(u) * n;
+            Vec3 f_t_new = f_t - u / w;
+            const double limit = plane.friction * f_n_new;
+            const double norm_t = f_t_new.norm();
+            if (norm_t > limit)
+                f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+
+            const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
+            if (delta.squaredNorm() == 0.0)
+                continue;
+            forces.row(c) = (f_n_new * n + f_t_new).transpose();
+            for (Index d = 0; d < m; ++d)
+                positions.row(d) += coupling(d, c) * delta.transpose();
+            change = std::max(change, w * delta.norm());
+        }
+        result.sweeps = sweep + 1;
+        result.last_change = change;
+        if (change <= settings.tolerance)
+            break;
+    }
+    return result;
+}
+
+} // namespace mat

@@ -1,0 +1,66 @@
+#pragma once
+// Ground-plane contact with Coulomb friction, resolved inside each projective dynamics iteration
+// (METHOD.md section 3; issue 4: "no penalty forces lagging a step").
+//
+// Why not a PD constraint with a weight: a unilateral contact constraint with a fixed weight
+// changes the system matrix whenever the contact set changes (a refactorization), and a stiff
+// weight on a node that is not penetrating holds it at its last iterate, so bodies stick to the
+// ground. Instead each global step is followed by an exact contact solve on the same matrix:
+// the global step is linear, so a force f_j (in right-hand-side units) added at node j moves
+// node i by D_ij f_j after the solve, with the scalar coupling D_ij = e_i^T A^-1 e_j (full space)
+// or b_i S^-1 b_j^T (reduced: b_i the basis row of node i); A acts alike on x, y and z, so D is
+// isotropic. With x_free the positions the global step gives without contact forces, the contact
+// forces solve the Signorini-Coulomb conditions (Jean and Moreau's non-smooth contact dynamics,
+// as used for projective dynamics by Ly, Jouve and Bertails-Descoubes 2020):
+//   x_c = x_free_c + sum_d D_cd f_d,   gap_c = n . (x_c - point) >= 0,   f_n >= 0,   f_n gap_c = 0,
+//   |f_t| <= mu f_n, and f_t opposes the tangential displacement of the node since the start of
+//   the step, which is zero while the node sticks (static friction).
+// Solved by projected Gauss-Seidel over the contacts in a fixed order (deterministic), warm
+// started from the previous iteration's forces.
+
+#include <vector>
+
+#include "common/eigen_types.hpp"
+
+namespace mat {
+
+/// A half-space boundary {x : normal . (x - point) >= 0} with Coulomb friction.
+struct PlaneCollider {
+    Vec3 point = Vec3::Zero();
+    Vec3 normal = Vec3::UnitY(); ///< unit length
+    double friction = 0.5; ///< Coulomb coefficient mu >= 0
+};
+
+/// One candidate contact: a node against a plane.
+struct ContactPair {
+    int node = 0;
+    int plane = 0;
+};
+
+struct ContactSettings {
+    int max_sweeps = 200; ///< projected Gauss-Seidel sweeps per solve
+    double tolerance = 1e-10; ///< stop when no position moves more than this in a sweep (m)
+};
+
+struct ContactSolveResult {
+    int sweeps = 0;
+    double last_change = 0.0; ///< largest position change in the last sweep (m)
+};
+
+/// Nodes on the boundary of a tet mesh (on a face that belongs to one tet), increasing.
+/// `tets`  T x 4 with indices in [0, num_nodes).
+std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_nodes);
+
+/// Solves the contact conditions above for `pairs` (m contacts).
+///   coupling         m x m, symmetric positive semi-definite: D between the pairs' nodes
+///   free_positions   m x 3: the pairs' node positions after the global step without contact
+///   start_positions  m x 3: the pairs' node positions at the start of the time step
+///   forces           m x 3: in: a warm start (zeros at first), out: the contact forces
+///   positions        m x 3: out: the pairs' node positions with the contact forces
+/// Allocates nothing when `positions` already has m rows.
+ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
+    const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
+    const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
+    Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings = {});
+
+} // namespace mat

@@ -1,0 +1,213 @@
+#include "runtime/pd/global_step.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "common/error.hpp"
+#include "common/timer.hpp"
+
+namespace mat {
+
+CouplingCache::CouplingCache(Index num_nodes, Index rows)
+    : m_slot(num_nodes, -1)
+    , m_rows(rows)
+    , m_columns(rows, 0)
+    , m_scratch(rows, 0)
+{
+}
+
+const std::vector<int>& CouplingCache::update(const std::vector<int>& nodes)
+{
+    // Keep the columns of nodes still listed, in the new order; the others are recomputed.
+    m_missing.clear();
+    const Index rows = m_rows;
+    const Index count = static_cast<Index>(nodes.size());
+    if (m_scratch.cols() < count)
+        m_scratch.resize(rows, std::max<Index>(count, 2 * m_scratch.cols()));
+    for (Index c = 0; c < count; ++c) {
+        const int node = nodes[c];
+        MAT_CHECK(node >= 0 && node < static_cast<int>(m_slot.size()),
+            "coupling cache: node {} out of range", node);
+        if (m_slot[node] >= 0)
+            m_scratch.col(c) = m_columns.col(m_slot[node]);
+        else
+            m_missing.push_back(node);
+    }
+    for (const int node : m_nodes)
+        m_slot[node] = -1;
+    m_nodes = nodes;
+    std::swap(m_columns, m_scratch);
+    for (Index c = 0; c < count; ++c) {
+        MAT_CHECK(m_slot[nodes[c]] < 0, "coupling cache: node {} listed twice", nodes[c]);
+        m_slot[nodes[c]] = static_cast<int>(c);
+    }
+    if (m_scratch.cols() < m_columns.cols())
+        m_scratch.resize(rows, m_columns.cols());
+    return m_missing;
+}
+
+Eigen::Ref<VecX> CouplingCache::column(int node)
+{
+    MAT_CHECK(m_slot[node] >= 0, "coupling cache: node {} was not prepared", node);
+    return m_columns.col(m_slot[node]);
+}
+
+Eigen::Ref<const VecX> CouplingCache::column(int node) const
+{
+    MAT_CHECK(m_slot[node] >= 0, "coupling cache: node {} was not prepared", node);
+    return m_columns.col(m_slot[node]);
+}
+
+// ---- reduced ------------------------------------------------------------------------------------
+
+ReducedGlobalStep::ReducedGlobalStep(const Model& model)
+    : m_model(model)
+    , m_rest_system(model.num_nodes(), 3)
+    , m_q(model.num_columns(), 3)
+    , m_cache(model.num_nodes(), model.num_columns())
+{
+    // A X = L_w X + M X / h^2 + P X.
+    const double inv_h2 = 1.0 / (model.time_step() * model.time_step());
+    m_rest_system = model.stiffness_rest();
+    for (Index i = 0; i < model.num_nodes(); ++i)
+        m_rest_system.row(i) += (model.masses()(i) * inv_h2) * model.rest_positions().row(i);
+    for (const int i : model.pinned_nodes())
+        m_rest_system.row(i) += model.pin_weight() * model.rest_positions().row(i);
+    m_q.setZero();
+}
+
+// Galerkin projection of A x = b onto x = X + B q (Lan et al. 2020, displacement form):
+//   S q = B^T (b - A X),  S = B^T A B.
+void ReducedGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
+{
+    Timer timer;
+    const Index n = m_model.num_nodes();
+    const Index k = m_model.num_columns();
+    const SparseRowMatrix& basis_t = m_model.basis_transpose();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            rhs.row(i) -= m_rest_system.row(i);
+    });
+    // B^T y, one row of B^T (a basis column) per task: O(nnz(B)), fixed summation order.
+    tbb::parallel_for(tbb::blocked_range<Index>(0, k), [&](const tbb::blocked_range<Index>& range) {
+        for (Index a = range.begin(); a != range.end(); ++a) {
+            Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
+            for (SparseRowMatrix::InnerIterator it(basis_t, a); it; ++it)
+                acc += it.value() * rhs.row(it.index());
+            m_q.row(a) = acc;
+        }
+    });
+    timings.rhs += timer.seconds();
+    timer.restart();
+    for (int c = 0; c < 3; ++c) {
+        auto column = m_q.col(c);
+        m_model.reduced_system().solveInPlace(column);
+    }
+    timings.solve += timer.seconds();
+}
+
+Vec3 ReducedGlobalStep::node_position(int node) const
+{
+    Eigen::RowVector3d x = m_model.rest_positions().row(node);
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+        x += it.value() * m_q.row(it.index());
+    return x.transpose();
+}
+
+void ReducedGlobalStep::prepare_nodes(const std::vector<int>& nodes)
+{
+    for (const int node : m_cache.update(nodes)) {
+        auto z = m_cache.column(node);
+        z.setZero();
+        for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+            z(it.index()) = it.value();
+        m_model.reduced_system().solveInPlace(z);
+    }
+}
+
+double ReducedGlobalStep::coupling(int node_i, int node_j) const
+{
+    const auto z = m_cache.column(node_j);
+    double sum = 0.0;
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node_i); it; ++it)
+        sum += it.value() * z(it.index());
+    return sum;
+}
+
+void ReducedGlobalStep::add_forces(
+    const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
+{
+    for (std::size_t c = 0; c < nodes.size(); ++c)
+        m_q.noalias() += m_cache.column(nodes[c]) * forces.row(static_cast<Index>(c));
+}
+
+void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
+{
+    Timer timer;
+    const MatX3& rest = m_model.rest_positions();
+    const SparseRowMatrix& basis = m_model.basis();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, m_model.num_nodes()),
+        [&](const tbb::blocked_range<Index>& range) {
+            for (Index i = range.begin(); i != range.end(); ++i) {
+                Eigen::RowVector3d acc = rest.row(i);
+                for (SparseRowMatrix::InnerIterator it(basis, i); it; ++it)
+                    acc += it.value() * m_q.row(it.index());
+                out.row(i) = acc;
+            }
+        });
+    timings.reconstruct += timer.seconds();
+}
+
+// ---- full ---------------------------------------------------------------------------------------
+
+FullGlobalStep::FullGlobalStep(const Model& model)
+    : m_x(model.num_nodes(), 3)
+    , m_cache(model.num_nodes(), model.num_nodes())
+{
+    m_cholesky.compute(model.full_system(), "full-space projective dynamics system");
+    m_x.setZero();
+}
+
+void FullGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
+{
+    Timer timer;
+    m_cholesky.solve_in_place_rows(rhs);
+    m_x = rhs;
+    timings.solve += timer.seconds();
+}
+
+Vec3 FullGlobalStep::node_position(int node) const
+{
+    return m_x.row(node).transpose();
+}
+
+void FullGlobalStep::prepare_nodes(const std::vector<int>& nodes)
+{
+    for (const int node : m_cache.update(nodes)) {
+        MatX unit = MatX::Zero(m_x.rows(), 1);
+        unit(node, 0) = 1.0;
+        m_cholesky.solve_in_place(unit);
+        m_cache.column(node) = unit.col(0);
+    }
+}
+
+double FullGlobalStep::coupling(int node_i, int node_j) const
+{
+    return m_cache.column(node_j)(node_i);
+}
+
+void FullGlobalStep::add_forces(
+    const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
+{
+    for (std::size_t c = 0; c < nodes.size(); ++c)
+        m_x.noalias() += m_cache.column(nodes[c]) * forces.row(static_cast<Index>(c));
+}
+
+void FullGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
+{
+    Timer timer;
+    out = m_x;
+    timings.reconstruct += timer.seconds();
+}
+
+} // namespace mat

@@ -1,0 +1,109 @@
+#pragma once
+// The projective dynamics global step (Bouaziz et al. 2014, eq. 13), in full space with CHOLMOD
+// or reduced to the handle basis (Lan et al. 2020). Both solve the same full-space system
+//   A x = b,   A = L_w + M / h^2 + P,   b = M s / h^2 + r + P p
+// (r the local step's projections, P the pin weights, p their targets); the reduced one solves
+// its Galerkin projection onto x = X + B q. Both also answer how a force at one node moves
+// another after the solve (the coupling D of runtime/pd/contact.hpp), for contact.
+
+#include <vector>
+
+#include "common/eigen_types.hpp"
+#include "common/sparse_cholesky.hpp"
+#include "runtime/model.hpp"
+
+namespace mat {
+
+/// Seconds spent per phase, accumulated over steps.
+struct SolverTimings {
+    double local = 0.0; ///< local step (projections and their gather)
+    double rhs = 0.0; ///< right-hand side: inertia, pins, and B^T y for the reduced solver
+    double solve = 0.0; ///< the linear solve (k x k dense or n x n CHOLMOD)
+    double reconstruct = 0.0; ///< x = X + B q (reduced) or the copy out (full)
+    double contact = 0.0; ///< contact detection, coupling and the contact solve
+    long steps = 0;
+    long iterations = 0;
+};
+
+class GlobalStep {
+public:
+    virtual ~GlobalStep() = default;
+
+    /// Solves with the full-space right-hand side `rhs`  n x 3 (which may be overwritten) and
+    /// keeps the solution inside (no contact forces).
+    virtual void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) = 0;
+    /// Position of `node` in the kept solution.
+    virtual Vec3 node_position(int node) const = 0;
+    /// Makes the coupling columns of `nodes` available (cached across calls while the nodes stay
+    /// in the list; nodes dropped from the list are forgotten).
+    virtual void prepare_nodes(const std::vector<int>& nodes) = 0;
+    /// D_ij: how far node i moves per unit force at node j (j prepared).
+    virtual double coupling(int node_i, int node_j) const = 0;
+    /// Adds the displacement of forces `forces`  m x 3 at `nodes` (m, prepared, repeats allowed)
+    /// to the kept solution.
+    virtual void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
+        = 0;
+    /// Writes the kept solution's positions  n x 3.
+    virtual void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) = 0;
+};
+
+/// Maps prepared nodes to columns of a dense cache, keeping columns of nodes still listed.
+class CouplingCache {
+public:
+    /// `rows` is the length of one column.
+    CouplingCache(Index num_nodes, Index rows);
+    /// Reorganizes the cache for `nodes`; returns the nodes whose columns must be (re)computed
+    /// and written through column(node).
+    const std::vector<int>& update(const std::vector<int>& nodes);
+    Eigen::Ref<VecX> column(int node);
+    Eigen::Ref<const VecX> column(int node) const;
+
+private:
+    std::vector<int> m_slot; ///< node -> column, -1 if absent
+    std::vector<int> m_nodes; ///< column -> node
+    std::vector<int> m_missing;
+    Index m_rows = 0;
+    MatX m_columns;
+    MatX m_scratch;
+};
+
+/// Reduced global step: S q = B^T (b - A X), x = X + B q with S = B^T A B prefactored in the
+/// model (dense LLT, three vector solves).
+class ReducedGlobalStep final : public GlobalStep {
+public:
+    explicit ReducedGlobalStep(const Model& model);
+    void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
+    Vec3 node_position(int node) const override;
+    void prepare_nodes(const std::vector<int>& nodes) override;
+    double coupling(int node_i, int node_j) const override;
+    void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces) override;
+    void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
+    /// q  k x 3 of the kept solution.
+    const MatX& reduced_coordinates() const { return m_q; }
+
+private:
+    const Model& m_model;
+    MatX3 m_rest_system; ///< A X  n x 3 (constant)
+    MatX m_q; ///< k x 3
+    CouplingCache m_cache; ///< S^-1 b_j^T per prepared node j
+};
+
+/// Full-space global step with CHOLMOD (the accuracy reference and speed baseline).
+class FullGlobalStep final : public GlobalStep {
+public:
+    /// Factors the model's full system (throws mat::Error if that fails).
+    explicit FullGlobalStep(const Model& model);
+    void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
+    Vec3 node_position(int node) const override;
+    void prepare_nodes(const std::vector<int>& nodes) override;
+    double coupling(int node_i, int node_j) const override;
+    void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces) override;
+    void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
+
+private:
+    SparseCholesky m_cholesky;
+    MatX3 m_x; ///< n x 3
+    CouplingCache m_cache; ///< A^-1 e_j per prepared node j
+};
+
+} // namespace mat
