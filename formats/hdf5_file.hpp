@@ -112,6 +112,22 @@ public:
     void set_attribute(const std::string& object, const std::string& name, int value);
     void set_attribute(const std::string& object, const std::string& name, double value);
 
+    /// Series: a 64-bit float dataset that grows by one item per append(), for what a run saves
+    /// every frame without holding the run in memory. `item_shape` is the shape of one item,
+    /// each entry >= 1: {} (the dataset is #items), {n} (#items x n) or {rows, cols}
+    /// (#items x rows x cols). The dataset is chunked along the items (chunks of up to 64
+    /// items and about 256 KiB; an item above 1 MiB is split by rows), with the writer's gzip
+    /// level; it starts with 0 items.
+    void create_series(const std::string& path, const std::vector<Index>& item_shape);
+    /// Appends one item to a series made by create_series: `item` holds the item row by row
+    /// (1 x 1 for {}, 1 x n or n x 1 for {n}, rows x cols for {rows, cols}). On a failure the
+    /// series keeps its previous items.
+    void append(const std::string& path, const Eigen::Ref<const RowMatX>& item);
+    /// Appends one value to a series of scalar items (item_shape {}).
+    void append(const std::string& path, double value);
+    /// How many items a series made by create_series holds.
+    Index series_size(const std::string& path) const;
+
     /// Stamps the root with `format_name` (string) and `format_version` (integer, >= 1),
     /// which H5Reader::require_format checks.
     void stamp_format(const std::string& name, int version);
@@ -168,6 +184,12 @@ public:
     Eigen::VectorXd read_vector(const std::string& path, Index size = any) const;
     Eigen::VectorXi read_vector_int(const std::string& path, Index size = any) const;
     VecXl read_vector_int64(const std::string& path, Index size = any) const;
+
+    /// Item `index` of a series (a dataset of rank 1, 2 or 3 whose first dimension counts the
+    /// items, see H5Writer::create_series), without reading the others: 1 x 1 (rank 1), 1 x n
+    /// (rank 2) or rows x cols (rank 3). `rows` and `cols` check the item's shape unless `any`.
+    RowMatX read_series_item(
+        const std::string& path, Index index, Index rows = any, Index cols = any) const;
 
     /// A CSR group written by write_sparse, of `rows x cols` (or `any`). Checks indptr
     /// (monotone, from 0 to nnz) and indices (in range, increasing within each row).

@@ -2,6 +2,7 @@
 // Private to formats/hdf5_*.cpp: the only header that includes HDF5. Handles that close
 // themselves, path normalisation, and turning HDF5's error stack into one line for mat::Error.
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -83,5 +84,24 @@ Hid string_type(const std::string& text);
 /// Reads a scalar string attribute (`is_attribute`) or dataset, fixed or variable length, into
 /// `out`. Returns an empty string on success, else what went wrong (for a message).
 std::string read_text(hid_t object, bool is_attribute, std::string& out);
+
+/// A series (H5Writer::create_series) kept open by the writer for fast appends
+/// (formats/hdf5_series.cpp).
+struct Series {
+    Hid dataset;
+    std::vector<hsize_t> item_dims; ///< the shape of one item (rank 0 to 2, entries >= 1)
+    hsize_t size = 0; ///< items written
+};
+
+/// Creates the series `path` (normalised; its parent exists and nothing is at `path`) in `file`
+/// with the dataset creation list `dcpl` (filters set, chunks not), empty, of 64-bit floats.
+/// `target` names the file in errors.
+Series create_series(hid_t file, hid_t dcpl, const std::string& target, const std::string& path,
+    const std::vector<hsize_t>& item_dims);
+/// Appends one item of `rows x cols` values (`data`, row by row) to `series` at `path`.
+/// Throws mat::Error if the shape does not match or HDF5 fails; the series then keeps its
+/// previous items.
+void append_to_series(Series& series, const std::string& target, const std::string& path,
+    const double* data, std::int64_t rows, std::int64_t cols);
 
 } // namespace mat::h5

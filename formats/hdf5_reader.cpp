@@ -210,6 +210,47 @@ struct H5Reader::Impl {
         return out;
     }
 
+    RowMatX read_series_item(const std::string& raw, Index index, Index rows, Index cols) const
+    {
+        const std::string dataset_path = normalize(raw);
+        const Hid dataset = open_dataset(dataset_path);
+        const Hid space(H5Dget_space(dataset.get()), H5Sclose);
+        const Hid type(H5Dget_type(dataset.get()), H5Tclose);
+        if (!space.valid() || !type.valid())
+            throw_error("{}: cannot read dataset '{}': {}", path, dataset_path, h5::reason());
+        const std::string what = "dataset '" + dataset_path + "'";
+        const std::vector<hsize_t> dims = dims_of(space.get(), what);
+        if (dims.empty() || dims.size() > 3)
+            throw_error("{}: {} has shape {}, expected a series (1-D, 2-D or 3-D)", path, what,
+                h5::describe_dims(dims));
+        const Index item_rows = dims.size() == 3 ? Index(dims[1]) : 1;
+        const Index item_cols = dims.size() == 1 ? 1 : Index(dims.back());
+        if ((rows != H5Reader::any && rows != item_rows)
+            || (cols != H5Reader::any && cols != item_cols))
+            throw_error("{}: {} has shape {}, expected items of {}", path, what,
+                h5::describe_dims(dims), describe_expected(2, rows, cols));
+        if (index < 0 || hsize_t(index) >= dims[0])
+            throw_error("{}: {} has {} items, item {} does not exist", path, what, dims[0], index);
+        std::vector<hsize_t> start(dims.size(), 0);
+        start[0] = hsize_t(index);
+        std::vector<hsize_t> count = dims;
+        count[0] = 1;
+        const hsize_t values = hsize_t(item_rows * item_cols);
+        const Hid memory_space(H5Screate_simple(1, &values, nullptr), H5Sclose);
+        if (!memory_space.valid()
+            || H5Sselect_hyperslab(
+                   space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr)
+                < 0)
+            throw_error("{}: cannot read {}: {}", path, what, h5::reason());
+        RowMatX out(item_rows, item_cols);
+        read_numbers<double>(fmt::format("item {} of {}", index, what), type.get(),
+            std::size_t(values), out.data(), [&](hid_t memory_type, void* buffer) {
+                return H5Dread(dataset.get(), memory_type, memory_space.get(), space.get(),
+                    H5P_DEFAULT, buffer);
+            });
+        return out;
+    }
+
     Hid open_attribute(const std::string& object, const std::string& name) const
     {
         const Hid handle = open_object(object);
@@ -313,6 +354,12 @@ std::vector<std::string> H5Reader::list(const std::string& raw_group) const
         throw_error("{}: cannot list group '{}': {}", m_impl->path, group, h5::reason());
     std::sort(names.begin(), names.end());
     return names;
+}
+
+RowMatX H5Reader::read_series_item(
+    const std::string& path, Index index, Index rows, Index cols) const
+{
+    return m_impl->read_series_item(path, index, rows, cols);
 }
 
 std::vector<Index> H5Reader::shape(const std::string& raw) const

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <map>
 
 #include "common/error.hpp"
 #include "common/log.hpp"
@@ -51,6 +52,7 @@ struct H5Writer::Impl {
     H5WriterOptions options;
     AtomicFile atomic;
     Hid file; // after `atomic`: closed before the temporary is removed
+    std::map<std::string, h5::Series> series; // after `file`: closed before the file
     bool committed = false;
 
     Impl(std::string target_, H5WriterOptions options_)
@@ -213,6 +215,52 @@ struct H5Writer::Impl {
         }
     }
 
+    void create_series(const std::string& raw_path, const std::vector<Index>& item_shape)
+    {
+        check_open();
+        const std::string path = h5::normalize(target, raw_path);
+        if (path == "/")
+            throw_error("{}: cannot write a dataset at the root '/'", target);
+        if (item_shape.size() > 2)
+            throw_error("{}: cannot create series '{}': items of rank {}, expected 0, 1 or 2",
+                target, path, item_shape.size());
+        std::vector<hsize_t> item_dims;
+        for (Index d : item_shape) {
+            if (d < 1)
+                throw_error("{}: cannot create series '{}': item dimension {}, expected >= 1",
+                    target, path, d);
+            item_dims.push_back(hsize_t(d));
+        }
+        make_groups(parent_of(path), "series '" + path + "'");
+        if (h5::object_type(file.get(), path) != H5I_BADID)
+            throw_error("{}: cannot create series '{}': it already exists", target, path);
+
+        const Hid dcpl = object_creation_list(H5P_DATASET_CREATE);
+        if (options.gzip_level > 0 && deflate_available()
+            && (H5Pset_shuffle(dcpl.get()) < 0
+                || H5Pset_deflate(dcpl.get(), unsigned(options.gzip_level)) < 0))
+            throw_error(
+                "{}: cannot set up compression for series '{}': {}", target, path, h5::reason());
+        series[path] = h5::create_series(file.get(), dcpl.get(), target, path, item_dims);
+    }
+
+    h5::Series& find_series(const std::string& path, const char* what)
+    {
+        const auto found = series.find(path);
+        if (found == series.end())
+            throw_error(
+                "{}: cannot {} '{}': not a series made by create_series", target, what, path);
+        return found->second;
+    }
+
+    // Appends one item of `rows x cols` values (`data`, row by row) to series `raw_path`.
+    void append(const std::string& raw_path, const double* data, Index rows, Index cols)
+    {
+        check_open();
+        const std::string path = h5::normalize(target, raw_path);
+        h5::append_to_series(find_series(path, "append to"), target, path, data, rows, cols);
+    }
+
     template <typename Vector>
     void write_1d(const std::string& path, const Vector& vector, hid_t file_type, hid_t memory_type)
     {
@@ -271,6 +319,32 @@ void H5Writer::write_vector(
 void H5Writer::write_vector(const std::string& path, const Eigen::Ref<const VecXl>& vector)
 {
     m_impl->write_1d(path, vector, H5T_STD_I64LE, H5T_NATIVE_INT64);
+}
+
+void H5Writer::create_series(const std::string& path, const std::vector<Index>& item_shape)
+{
+    m_impl->create_series(path, item_shape);
+}
+
+void H5Writer::append(const std::string& path, const Eigen::Ref<const RowMatX>& item)
+{
+    // A Ref may view a block whose rows are not adjacent: make them so.
+    if (item.rows() > 1 && item.outerStride() != item.cols()) {
+        const RowMatX packed = item;
+        m_impl->append(path, packed.data(), packed.rows(), packed.cols());
+    } else {
+        m_impl->append(path, item.data(), item.rows(), item.cols());
+    }
+}
+
+void H5Writer::append(const std::string& path, double value)
+{
+    m_impl->append(path, &value, 1, 1);
+}
+
+Index H5Writer::series_size(const std::string& path) const
+{
+    return Index(m_impl->find_series(h5::normalize(m_impl->target, path), "get the size of").size);
 }
 
 void H5Writer::write_sparse(const std::string& path, const SparseRowMat& matrix)
@@ -349,6 +423,7 @@ void H5Writer::commit()
     Impl& impl = *m_impl;
     impl.check_open();
     impl.committed = true; // no further writes, whatever happens below
+    impl.series.clear(); // close the series' datasets before the file
     if (H5Fflush(impl.file.get(), H5F_SCOPE_GLOBAL) < 0)
         throw_error("{}: cannot write HDF5 file: {}", impl.target, h5::reason());
     if (!impl.file.reset())

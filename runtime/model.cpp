@@ -61,6 +61,14 @@ Model::Model(const BakeData& bake, const Material& material, const ModelOptions&
         throw_error("model: time step {} must be positive and finite", options.time_step);
     if (!(options.volume_tolerance >= 0.0 && options.volume_tolerance < 1.0))
         throw_error("model: volume tolerance {} must be in [0, 1)", options.volume_tolerance);
+    const double limit_min = material.strain_limit_min, limit_max = material.strain_limit_max;
+    if (!(limit_min >= 0.0 && limit_min <= 1.0 && limit_max >= 1.0))
+        throw_error("model: strain limits [{}, {}] must satisfy 0 <= min <= 1 <= max", limit_min,
+            limit_max);
+    if (!(options.strain_limit_weight_scale >= 0.0)
+        || !std::isfinite(options.strain_limit_weight_scale))
+        throw_error("model: strain limit weight scale {} must be finite and >= 0",
+            options.strain_limit_weight_scale);
     if (!(options.pin_weight_scale > 0.0))
         throw_error("model: pin weight scale {} must be positive", options.pin_weight_scale);
     check_bake(bake);
@@ -74,7 +82,9 @@ Model::Model(const BakeData& bake, const Material& material, const ModelOptions&
     const double lambda = e_mod * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     m_strain_weight = 2.0 * mu;
     m_volume_weight = lambda;
-    const double stiffness = m_strain_weight + m_volume_weight;
+    const bool limiting = limit_min > 0.0 || std::isfinite(limit_max);
+    m_strain_limit_weight = limiting ? options.strain_limit_weight_scale * m_strain_weight : 0.0;
+    const double stiffness = m_strain_weight + m_volume_weight + m_strain_limit_weight;
 
     m_rest_positions = bake.tet_mesh.positions;
     m_tets = bake.tet_mesh.tets;
@@ -97,7 +107,7 @@ Model::Model(const BakeData& bake, const Material& material, const ModelOptions&
                 m_incident_corners(fill(m_tets(e, c))++) = static_cast<int>(4 * e + c);
     }
 
-    // Full-space system A = (2 mu + lambda) L + M / h^2 (+ pins below).
+    // Full-space system A = (2 mu + lambda + w_limit) L + M / h^2 (+ pins below).
     Eigen::SparseMatrix<double> laplacian = bake.laplacian;
     m_full_system = stiffness * laplacian;
     VecX diagonal = m_masses / h2;
@@ -136,7 +146,7 @@ Model::Model(const BakeData& bake, const Material& material, const ModelOptions&
 
     m_stiffness_rest = stiffness * (laplacian * m_rest_positions);
 
-    // Reduced system S = B^T A B = (2 mu + lambda) B^T L B + density B^T M B / h^2
+    // Reduced system S = B^T A B = (2 mu + lambda + w_limit) B^T L B + density B^T M B / h^2
     //                             + w_p sum_pins B_i^T B_i.
     m_basis = bake.basis;
     m_basis.makeCompressed();

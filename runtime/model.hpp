@@ -10,13 +10,18 @@
 //   Volume constraint of tet e: w_e/2 ||F - P_vol(F)||_F^2 with w_e = lambda vol_e, where P_vol
 //   clamps det F to [1 - eps, 1 + eps]. (A PD approximation: lambda penalizes volume change in
 //   linear elasticity; the mapping is exact only for small strain.)
-//   Both weights are proportional to vol_e, so the stiffness matrix is
-//   L_w = (2 mu + lambda) L with the bake's per-unit Laplacian L = sum_e vol_e G_e^T G_e.
+//   Strain limiting (optional, Bouaziz et al. 2014 section 5.1): w_e/2 ||F - U clamp(S, min, max)
+//   V^T||_F^2 with F = U S V^T (S signed), w_e = w_limit vol_e, w_limit =
+//   strain_limit_weight_scale * 2 mu when limiting is on (strain_limit_min > 0 or
+//   strain_limit_max finite), else 0.
+//   All weights are proportional to vol_e, so the stiffness matrix is
+//   L_w = (2 mu + lambda + w_limit) L with the bake's per-unit Laplacian L = sum_e vol_e G_e^T G_e.
 //   Masses: M = density * lumped_mass (diagonal).
 //   Pins: attachment constraints w_p/2 ||x_i - p_i||^2 with w_p = pin_weight_scale * the
 //   largest diagonal entry of L_w + M/h^2. The pinned node then lags its target by at most
 //   about |force on it| / w_p, i.e. a relative error ~ 1 / pin_weight_scale (default 1e8).
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -31,6 +36,10 @@ struct Material {
     double youngs_modulus = 1e5; ///< E, Pa
     double poisson_ratio = 0.3; ///< nu in [0, 0.5)
     double density = 1000.0; ///< kg / m^3
+    /// Singular values of F are kept in [min, max] by the strain-limit constraint, which is on
+    /// iff min > 0 or max is finite; 0 <= min <= 1 <= max.
+    double strain_limit_min = 0.0;
+    double strain_limit_max = std::numeric_limits<double>::infinity();
 };
 
 struct ModelOptions {
@@ -39,6 +48,8 @@ struct ModelOptions {
     std::vector<int> pinned_nodes; ///< tet-mesh node indices, distinct
     MatX3 pin_targets; ///< #pinned x 3 target positions (empty = the rest positions)
     double pin_weight_scale = 1e8; ///< w_p relative to the largest diagonal entry
+    /// w_limit / (2 mu) when strain limiting is on (Material::strain_limit_*), >= 0.
+    double strain_limit_weight_scale = 10.0;
 };
 
 class Model {
@@ -61,6 +72,8 @@ public:
     const VecX& masses() const { return m_masses; } ///< n, kg
     double strain_weight() const { return m_strain_weight; } ///< 2 mu (per unit volume)
     double volume_weight() const { return m_volume_weight; } ///< lambda (per unit volume)
+    /// w_limit (per unit volume): 0 unless strain limiting is on.
+    double strain_limit_weight() const { return m_strain_limit_weight; }
 
     /// Node -> incident (tet, corner) pairs, CSR: entries [indptr(i), indptr(i+1)) of
     /// incident_corners hold 4 * tet + corner, sorted (a fixed order for deterministic sums).
@@ -87,6 +100,7 @@ private:
     double m_volume_tolerance = 0.0;
     double m_strain_weight = 0.0;
     double m_volume_weight = 0.0;
+    double m_strain_limit_weight = 0.0;
     MatX3 m_rest_positions;
     MatX4i m_tets;
     MatX m_dm_inverse;

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # README command 1: install the dependencies, build, then run the main job on a bundled sample:
-# bake the sample creature (surface + exact medial mesh) into one HDF5 file and inspect it.
-# Outputs go to samples/out/. BUILD_DIR picks the build directory (default: build).
+# bake the sample creature (surface + exact medial mesh) into one HDF5 file, run its scene (a
+# drop onto the ground) and write frames: OBJ surfaces, a ParaView series (frames.pvd) and an
+# HDF5 trajectory cache, with per-frame statistics. Outputs go to samples/out/creature/.
+# BUILD_DIR picks the build directory (default: build); FRAMES the number of frames (default:
+# the scene's).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -11,13 +14,22 @@ cmake -S "$root" -B "$build" > "$build/configure.log" 2>&1 || { cat "$build/conf
 cmake --build "$build" -j"$(nproc)" --target mat-bake mat-run
 
 bake="$build/preprocess/mat-bake"
-out="$root/samples/out"
+run="$build/runtime/mat-run"
+sample="$root/samples/creature"
+out="$root/samples/out/creature"
 mkdir -p "$out"
-sample="$root/samples/creature/creature"
 echo "== mat-bake check: what the bake will read"
-"$bake" check "$sample.obj" --medial "$sample.ma"
+"$bake" check "$sample/creature.obj" --medial "$sample/creature.ma"
 echo "== mat-bake: bake the creature"
-"$bake" "$sample.obj" --medial "$sample.ma" -o "$out/creature.h5"
-echo "== mat-bake inspect"
+"$bake" "$sample/creature.obj" --medial "$sample/creature.ma" -o "$out/creature.h5"
 "$bake" inspect "$out/creature.h5"
-echo "demo: the bake is $out/creature.h5"
+echo "== mat-run: drop it on the ground"
+# The scene names its bake relative to itself: run a copy of it next to the bake, writing OBJ
+# frames, a VTU series with velocity and stretch, and the HDF5 trajectory.
+sed -e 's/"output": *{[^}]*}/"output": { "format": ["obj", "vtu", "h5"], "every": 1, "fields": ["velocity", "stretch"] }/' \
+    "$sample/scene.json" > "$out/scene.json"
+frames=()
+[ -n "${FRAMES:-}" ] && frames=(--frames "$FRAMES")
+"$run" "$out/scene.json" -o "$out/frames" --stats "$out/stats.json" "${frames[@]}"
+echo "demo: frames in $out/frames (creature_*.obj, frames.pvd for ParaView, trajectory.h5),"
+echo "      statistics in $out/stats.json"

@@ -42,24 +42,34 @@ std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_
 }
 
 ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
+    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings)
 {
     const Index m = static_cast<Index>(pairs.size());
     MAT_CHECK(coupling.rows() == m && coupling.cols() == m && free_positions.rows() == m
-            && start_positions.rows() == m && forces.rows() == m && positions.rows() == m,
+            && start_positions.rows() == m && forces.rows() == m && positions.rows() == m
+            && static_cast<Index>(column_ready.size()) == m,
         "contact solve: inconsistent sizes for {} contacts", m);
     ContactSolveResult result;
     if (m == 0)
         return result;
 
     // x = x_free + D f for the warm-start forces.
+    auto ensure_column = [&](Index c) {
+        if (!column_ready[c]) {
+            fill_column(c);
+            column_ready[c] = 1;
+        }
+    };
     positions = free_positions;
     for (Index d = 0; d < m; ++d)
-        if (forces.row(d).squaredNorm() > 0.0)
+        if (forces.row(d).squaredNorm() > 0.0) {
+            ensure_column(d);
             for (Index c = 0; c < m; ++c)
                 positions.row(c) += coupling(c, d) * forces.row(d);
+        }
 
     for (int sweep = 0; sweep < settings.max_sweeps; ++sweep) {
         double change = 0.0;
@@ -91,6 +101,7 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
             if (delta.squaredNorm() == 0.0)
                 continue;
             forces.row(c) = (f_n_new * n + f_t_new).transpose();
+            ensure_column(c);
             for (Index d = 0; d < m; ++d)
                 positions.row(d) += coupling(d, c) * delta.transpose();
             change = std::max(change, w * delta.norm());

@@ -18,6 +18,7 @@
 // Solved by projected Gauss-Seidel over the contacts in a fixed order (deterministic), warm
 // started from the previous iteration's forces.
 
+#include <functional>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -39,7 +40,9 @@ struct ContactPair {
 
 struct ContactSettings {
     int max_sweeps = 200; ///< projected Gauss-Seidel sweeps per solve
-    double tolerance = 1e-10; ///< stop when no position moves more than this in a sweep (m)
+    /// Stop when no position moves more than this in a sweep (m; the solvers take it relative
+    /// to the rest bounding-box diagonal).
+    double tolerance = 1e-7;
 };
 
 struct ContactSolveResult {
@@ -52,13 +55,17 @@ struct ContactSolveResult {
 std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_nodes);
 
 /// Solves the contact conditions above for `pairs` (m contacts).
-///   coupling         m x m, symmetric positive semi-definite: D between the pairs' nodes
+///   coupling         m x m, symmetric positive semi-definite: D between the pairs' nodes.
+///                    Only its diagonal must be filled on entry: column c is filled by
+///                    `fill_column(c)` the first time contact c needs it (a contact that never
+///                    pushes never needs its column); `column_ready` (m) records which are.
 ///   free_positions   m x 3: the pairs' node positions after the global step without contact
 ///   start_positions  m x 3: the pairs' node positions at the start of the time step
 ///   forces           m x 3: in: a warm start (zeros at first), out: the contact forces
 ///   positions        m x 3: out: the pairs' node positions with the contact forces
 /// Allocates nothing when `positions` already has m rows.
 ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
+    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings = {});

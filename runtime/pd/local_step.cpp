@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
+#include "runtime/pd/projection_kernel.hpp"
 
 namespace mat {
 
@@ -26,7 +27,8 @@ Mat3 deformation_gradient(const Eigen::Ref<const MatX3>& positions,
     return ds * dm_inv;
 }
 
-TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolerance)
+TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolerance,
+    double strain_limit_min, double strain_limit_max)
 {
     const Eigen::JacobiSVD<Mat3> svd(
         deformation_gradient, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -40,6 +42,9 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     }
     TetProjection result;
     result.rotation = u * v.transpose();
+    const Vec3 clamped = s.cwiseMax(strain_limit_min).cwiseMin(strain_limit_max);
+    result.limit
+        = clamped == s ? deformation_gradient : Mat3(u * clamped.asDiagonal() * v.transpose());
 
     const double det = s.prod();
     const double target = std::clamp(det, 1.0 - volume_tolerance, 1.0 + volume_tolerance);
@@ -112,27 +117,74 @@ void LocalStep::compute(
     const MatX4i& tets = model.tets();
     const MatX& dm_inverse = model.dm_inverse();
     const VecX& volumes = model.rest_volumes();
-    const double w_strain = model.strain_weight();
-    const double w_volume = model.volume_weight();
-    const double eps = model.volume_tolerance();
+    ProjectionParams params;
+    params.volume_tolerance = model.volume_tolerance();
+    params.limit_min = model.material().strain_limit_min;
+    params.limit_max = model.material().strain_limit_max;
+    params.rotation_weight = model.strain_weight();
+    params.volume_weight = model.volume_weight();
+    params.limit_weight = model.strain_limit_weight();
+    constexpr int lanes = projection_lanes;
+    const Index num_blocks = (t + lanes - 1) / lanes;
+    const double* x = positions.data(); // row-major n x 3, rows contiguous (checked below)
+    MAT_CHECK(positions.outerStride() == 3, "local step: positions must be contiguous rows");
 
-    tbb::parallel_for(tbb::blocked_range<Index>(0, t), [&](const tbb::blocked_range<Index>& range) {
-        for (Index e = range.begin(); e != range.end(); ++e) {
-            const Mat3 f = deformation_gradient(positions, tets, dm_inverse, e);
-            const TetProjection p = project_tet(f, eps);
-            const Mat3 target = w_strain * p.rotation + w_volume * p.volume;
-            Mat3 dm_inv;
-            for (int r = 0; r < 3; ++r)
-                for (int c = 0; c < 3; ++c)
-                    dm_inv(r, c) = dm_inverse(e, 3 * r + c);
-            // vol_e G_e^T target^T with G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3).
-            const Mat3 q = volumes(e) * dm_inv * target.transpose();
-            const Vec3 sum = q.colwise().sum().transpose();
-            m_contributions.block<1, 3>(e, 0) = -sum.transpose();
-            for (int c = 0; c < 3; ++c)
-                m_contributions.block<1, 3>(e, 3 * (c + 1)) = q.row(c);
-        }
-    });
+    // Blocks of `lanes` consecutive tets (Morton-ordered by the bake): gather F, project, scatter
+    // the 12 numbers per tet. A block's result does not depend on how TBB splits the range.
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, num_blocks), [&](const tbb::blocked_range<Index>& range) {
+            MatBlock f, target;
+            for (Index block = range.begin(); block != range.end(); ++block) {
+                const Index first = block * lanes;
+                const int count = static_cast<int>(std::min<Index>(lanes, t - first));
+                // F = Ds Dm^-1 per lane; padding lanes get the identity.
+                for (int l = 0; l < lanes; ++l) {
+                    if (l >= count) {
+                        for (int i = 0; i < 9; ++i)
+                            f.m[i][l] = (i % 4 == 0) ? 1.0 : 0.0;
+                        continue;
+                    }
+                    const Index e = first + l;
+                    const double* x0 = x + 3 * tets(e, 0);
+                    double ds[3][3]; // ds[r][c] = x_{c+1}(r) - x_0(r)
+                    for (int c = 0; c < 3; ++c) {
+                        const double* xc = x + 3 * tets(e, c + 1);
+                        for (int r = 0; r < 3; ++r)
+                            ds[r][c] = xc[r] - x0[r];
+                    }
+                    const double* dm = &dm_inverse(e, 0);
+                    const Index stride = dm_inverse.rows(); // column-major T x 9
+                    for (int r = 0; r < 3; ++r)
+                        for (int c = 0; c < 3; ++c)
+                            f.m[3 * r + c][l] = ds[r][0] * dm[(3 * 0 + c) * stride]
+                                + ds[r][1] * dm[(3 * 1 + c) * stride]
+                                + ds[r][2] * dm[(3 * 2 + c) * stride];
+                }
+                project_block(f, params, target);
+                // vol_e G_e^T target^T with G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3):
+                // row c + 1 of the 4 x 3 contribution is vol_e (Dm^-1 target^T) row c.
+                for (int l = 0; l < count; ++l) {
+                    const Index e = first + l;
+                    const double* dm = &dm_inverse(e, 0);
+                    const Index stride = dm_inverse.rows();
+                    const double vol = volumes(e);
+                    double* out = m_contributions.row(e).data();
+                    double sum[3] = { 0.0, 0.0, 0.0 };
+                    for (int r = 0; r < 3; ++r)
+                        for (int c = 0; c < 3; ++c) {
+                            // (Dm^-1 target^T)(r, c) = sum_j Dm^-1(r, j) target(c, j)
+                            const double q = vol
+                                * (dm[(3 * r + 0) * stride] * target.m[3 * c + 0][l]
+                                    + dm[(3 * r + 1) * stride] * target.m[3 * c + 1][l]
+                                    + dm[(3 * r + 2) * stride] * target.m[3 * c + 2][l]);
+                            out[3 * (r + 1) + c] = q;
+                            sum[c] += q;
+                        }
+                    for (int c = 0; c < 3; ++c)
+                        out[c] = -sum[c];
+                }
+            }
+        });
 
     const VecXi& indptr = model.incident_indptr();
     const VecXi& corners = model.incident_corners();

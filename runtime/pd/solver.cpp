@@ -43,12 +43,18 @@ PdSolver::PdSolver(
     , m_rhs(model.num_nodes(), 3)
 {
     check_options(options);
+    m_fill_column = [this](Index b) {
+        for (Index a = 0; a < static_cast<Index>(m_pairs.size()); ++a)
+            m_coupling(a, b) = m_global->coupling(m_pairs[a].node, m_pairs[b].node);
+    };
     if (!options.planes.empty()) {
         m_boundary = boundary_nodes(model.tets(), model.num_nodes());
         const MatX3& rest = model.rest_positions();
         const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
         m_margin = options.contact_margin * diagonal;
         m_options.contact.tolerance = options.contact.tolerance * diagonal;
+        m_previous_forces
+            = MatX3::Zero(model.num_nodes() * static_cast<Index>(options.planes.size()), 3);
     }
 }
 
@@ -66,6 +72,9 @@ void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
 // inertia target (the iterates move from s towards an equilibrium near both).
 void PdSolver::find_contacts(const Model& model, const State& in)
 {
+    const Index num_planes = static_cast<Index>(m_options.planes.size());
+    for (Index a = 0; a < static_cast<Index>(m_pairs.size()); ++a)
+        m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane).setZero();
     m_pairs.clear();
     m_pair_nodes.clear();
     m_unique_nodes.clear();
@@ -93,12 +102,15 @@ void PdSolver::find_contacts(const Model& model, const State& in)
         m_contact_forces.resize(m, 3);
         m_contact_positions.resize(m, 3);
     }
-    for (Index b = 0; b < m; ++b)
-        for (Index a = 0; a < m; ++a)
-            m_coupling(a, b) = m_global->coupling(m_pairs[a].node, m_pairs[b].node);
+    // Only the diagonal now: a column is computed when its contact first pushes.
+    m_column_ready.assign(m, 0);
     for (Index a = 0; a < m; ++a)
+        m_coupling(a, a) = m_global->coupling(m_pairs[a].node, m_pairs[a].node);
+    for (Index a = 0; a < m; ++a) {
         m_contact_start.row(a) = in.positions.row(m_pairs[a].node);
-    m_contact_forces.setZero();
+        m_contact_forces.row(a)
+            = m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane);
+    }
 }
 
 void PdSolver::step(const Model& model, const State& in, State& out, double dt)
@@ -159,9 +171,9 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
             timer.restart();
             for (Index a = 0; a < m; ++a)
                 m_contact_free.row(a) = m_global->node_position(m_pairs[a].node).transpose();
-            const ContactSolveResult result
-                = solve_plane_contacts(m_coupling, m_options.planes, m_pairs, m_contact_free,
-                    m_contact_start, m_contact_forces, m_contact_positions, m_options.contact);
+            const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready,
+                m_fill_column, m_options.planes, m_pairs, m_contact_free, m_contact_start,
+                m_contact_forces, m_contact_positions, m_options.contact);
             m_report.contact_sweeps += result.sweeps;
             m_global->add_forces(m_pair_nodes, m_contact_forces);
             m_timings.contact += timer.seconds();
@@ -171,7 +183,10 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
     }
 
     m_report.contacts = static_cast<int>(m);
+    const Index num_planes = static_cast<Index>(m_options.planes.size());
     for (Index a = 0; a < m; ++a) {
+        m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane)
+            = m_contact_forces.row(a);
         if (m_contact_forces.row(a).squaredNorm() > 0.0)
             ++m_report.active_contacts;
         const PlaneCollider& plane = m_options.planes[m_pairs[a].plane];

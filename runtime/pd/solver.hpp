@@ -21,6 +21,7 @@
 // was made for, which must outlive it; step() allocates nothing once the workspace exists,
 // except when the set of contact candidates grows past anything seen before.
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -89,8 +90,13 @@ private:
     std::vector<ContactPair> m_pairs;
     std::vector<int> m_pair_nodes; ///< node of each pair (repeats allowed)
     std::vector<int> m_unique_nodes;
-    MatX m_coupling; ///< m x m
+    MatX m_coupling; ///< m x m, columns filled on demand
+    std::vector<char> m_column_ready; ///< m
+    std::function<void(Index)> m_fill_column;
     MatX3 m_contact_free, m_contact_start, m_contact_forces, m_contact_positions; ///< m x 3
+    /// The last step's force of each (node, plane) pair, row node * #planes + plane: the warm
+    /// start of the next step's contact solve.
+    MatX3 m_previous_forces;
 };
 
 class SemiReducedSolver final : public PdSolver {

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 #include <vector>
 
 #include "common/parallel.hpp"
@@ -70,19 +71,32 @@ SparseRowMatrix lattice_basis(const MatX3& positions, int a)
     return basis;
 }
 
-template <typename Solver>
-double median_ms_per_step(Solver& solver, const Model& model, const State& start, int steps)
+/// Median ms per step, and the mean split per step (ms) from the solver's phase timings.
+struct StepFigures {
+    double median_ms = 0.0;
+    double local_ms = 0.0, rhs_ms = 0.0, solve_ms = 0.0, reconstruct_ms = 0.0;
+};
+
+StepFigures measure(PdSolver& solver, const Model& model, const State& start, int steps)
 {
     std::vector<double> times;
     State a = start, b;
+    const SolverTimings before = solver.timings();
     for (int s = 0; s < steps; ++s) {
         Timer timer;
         solver.step(model, a, b, model.time_step());
         times.push_back(1e3 * timer.seconds());
         std::swap(a, b);
     }
+    const SolverTimings& after = solver.timings();
     std::nth_element(times.begin(), times.begin() + steps / 2, times.end());
-    return times[steps / 2];
+    StepFigures figures;
+    figures.median_ms = times[steps / 2];
+    figures.local_ms = 1e3 * (after.local - before.local) / steps;
+    figures.rhs_ms = 1e3 * (after.rhs - before.rhs) / steps;
+    figures.solve_ms = 1e3 * (after.solve - before.solve) / steps;
+    figures.reconstruct_ms = 1e3 * (after.reconstruct - before.reconstruct) / steps;
+    return figures;
 }
 
 } // namespace
@@ -117,14 +131,21 @@ int main(int argc, char** argv)
     std::printf("tets %ld, nodes %ld, columns k = %ld, nnz(B) = %ld, model build %.1f ms\n",
         static_cast<long>(model.num_tets()), static_cast<long>(n),
         static_cast<long>(model.num_columns()), static_cast<long>(bake.basis.nonZeros()), model_ms);
-    std::printf("%-8s %12s %12s\n", "threads", "reduced ms", "full ms");
+    std::printf("ms per step (median) and its split (mean): local step, right-hand side (B^T y "
+                "for reduced), solve, reconstruction (B q for reduced)\n");
+    std::printf("%-8s %-8s %9s %9s %9s %9s %9s %12s\n", "solver", "threads", "step", "local", "rhs",
+        "solve", "reconstr", "local ns/tet");
     for (const int threads : { 1, 2 }) {
         set_threads(threads);
         SemiReducedSolver reduced(model);
         FullSolver full(model);
-        const double reduced_ms = median_ms_per_step(reduced, model, start, steps);
-        const double full_ms = median_ms_per_step(full, model, start, steps);
-        std::printf("%-8d %12.2f %12.2f\n", threads, reduced_ms, full_ms);
+        const StepFigures r = measure(reduced, model, start, steps);
+        const StepFigures f = measure(full, model, start, steps);
+        for (const auto& [name, fig] : { std::pair { "reduced", r }, std::pair { "full", f } })
+            std::printf("%-8s %-8d %9.2f %9.2f %9.2f %9.2f %9.2f %12.1f\n", name, threads,
+                fig.median_ms, fig.local_ms, fig.rhs_ms, fig.solve_ms, fig.reconstruct_ms,
+                1e6 * fig.local_ms
+                    / (SolverOptions {}.iterations * static_cast<double>(model.num_tets())));
     }
     return 0;
 }

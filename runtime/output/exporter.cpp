@@ -1,0 +1,111 @@
+#include "runtime/output/exporter.hpp"
+
+#include <fmt/format.h>
+
+#include "common/error.hpp"
+#include "formats/trajectory_io.hpp"
+
+namespace mat {
+
+Exporter::Exporter(const Simulation& simulation, const OutputSettings& output,
+    std::string directory, const std::string& run_json)
+    : m_directory(std::move(directory))
+{
+    for (const std::string& format : output.formats) {
+        if (format == "obj")
+            m_obj = true;
+        else if (format == "ply")
+            m_ply = true;
+        else if (format == "vtu")
+            m_vtu = true;
+        else if (format == "h5")
+            m_h5 = true;
+        else
+            throw_error("output: unknown format '{}'", format);
+    }
+    for (const std::string& field : output.fields) {
+        if (field == "velocity")
+            m_velocity = true;
+        else if (field == "stretch")
+            m_stretch = true;
+        else
+            throw_error("output: unknown field '{}'", field);
+    }
+    const auto& bodies = simulation.bodies();
+    for (const Body& body : bodies) {
+        m_surface.emplace_back(body.surface->num_vertices(), 3);
+        m_surface_velocity.emplace_back(body.surface->num_vertices(), 3);
+    }
+    if (m_h5) {
+        std::vector<TrajectoryObject> objects;
+        for (std::size_t b = 0; b < bodies.size(); ++b) {
+            bodies[b].surface->positions(bodies[b].state.positions, m_surface[b]);
+            objects.push_back(
+                TrajectoryObject { bodies[b].name, bodies[b].surface->faces(), m_surface[b] });
+        }
+        m_trajectory
+            = std::make_unique<TrajectoryWriter>(m_directory + "/trajectory.h5", objects, run_json);
+    }
+}
+
+Exporter::~Exporter() = default;
+
+std::string Exporter::frame_path(const std::string& body, int frame, const char* extension) const
+{
+    return fmt::format("{}/{}_{:05d}.{}", m_directory, body, frame, extension);
+}
+
+void Exporter::write_frame(
+    int frame, double time, const Simulation& simulation, const std::vector<VecX>& tet_strain)
+{
+    const auto& bodies = simulation.bodies();
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        const Body& body = bodies[b];
+        body.surface->positions(body.state.positions, m_surface[b]);
+        if (m_velocity)
+            body.surface->interpolate(body.state.velocities, m_surface_velocity[b]);
+        if (m_obj) {
+            write_frame_surface(frame_path(body.name, frame, "obj"), m_surface[b],
+                body.surface->faces(), SurfaceFrameFormat::obj);
+            ++m_files;
+        }
+        if (m_ply) {
+            write_frame_surface(frame_path(body.name, frame, "ply"), m_surface[b],
+                body.surface->faces(), SurfaceFrameFormat::ply);
+            ++m_files;
+        }
+        if (m_vtu) {
+            std::vector<PointField> fields;
+            if (m_velocity)
+                fields.push_back(PointField { "velocity", m_surface_velocity[b] });
+            if (m_stretch) {
+                MAT_CHECK(b < tet_strain.size() && tet_strain[b].size() == body.model->num_tets(),
+                    "exporter: no stretch given for body {}", body.name);
+                const VecXi& tets = body.surface->tets();
+                MatX stretch(tets.size(), 1);
+                for (Index v = 0; v < tets.size(); ++v)
+                    stretch(v, 0) = tet_strain[b](tets(v));
+                fields.push_back(PointField { "stretch", std::move(stretch) });
+            }
+            const std::string path = frame_path(body.name, frame, "vtu");
+            write_vtu(path, m_surface[b], body.surface->faces(), fields);
+            m_pvd.push_back(PvdEntry {
+                time, static_cast<int>(b), fmt::format("{}_{:05d}.vtu", body.name, frame) });
+            ++m_files;
+        }
+    }
+    if (m_vtu)
+        write_pvd(m_directory + "/frames.pvd", m_pvd);
+    if (m_h5)
+        m_trajectory->append(time, m_surface, m_velocity ? &m_surface_velocity : nullptr);
+}
+
+void Exporter::finish()
+{
+    if (m_trajectory) {
+        m_trajectory->commit();
+        ++m_files;
+    }
+}
+
+} // namespace mat

@@ -1,0 +1,235 @@
+#include "runtime/run_command.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "common/error.hpp"
+#include "common/log.hpp"
+#include "common/parallel.hpp"
+#include "common/progress.hpp"
+#include "common/timer.hpp"
+#include "formats/atomic_file.hpp"
+#include "runtime/output/exporter.hpp"
+#include "runtime/output/measures.hpp"
+#include "runtime/scene/scene.hpp"
+#include "runtime/simulation.hpp"
+
+namespace mat {
+
+namespace {
+
+    /// Phase totals of all bodies' solvers.
+    SolverTimings total_timings(const Simulation& simulation)
+    {
+        SolverTimings sum;
+        for (const Body& body : simulation.bodies()) {
+            const SolverTimings& t = body.solver->timings();
+            sum.local += t.local;
+            sum.rhs += t.rhs;
+            sum.solve += t.solve;
+            sum.reconstruct += t.reconstruct;
+            sum.contact += t.contact;
+            sum.iterations += t.iterations;
+        }
+        return sum;
+    }
+
+    nlohmann::json phase_json(
+        const SolverTimings& now, const SolverTimings& before, double export_seconds, double scale)
+    {
+        return nlohmann::json {
+            { "local", scale * (now.local - before.local) },
+            { "rhs", scale * (now.rhs - before.rhs) },
+            { "solve", scale * (now.solve - before.solve) },
+            { "reconstruct", scale * (now.reconstruct - before.reconstruct) },
+            { "contact", scale * (now.contact - before.contact) },
+            { "export", scale * export_seconds },
+        };
+    }
+
+    std::string timing_table(const SolverTimings& t, double export_seconds, double measure_seconds,
+        double total_seconds, long steps)
+    {
+        struct Row {
+            const char* phase;
+            double seconds;
+        };
+        const Row rows[] = {
+            { "local step", t.local },
+            { "global: right-hand side", t.rhs },
+            { "global: solve", t.solve },
+            { "global: reconstruct", t.reconstruct },
+            { "collision (contact)", t.contact },
+            { "export", export_seconds },
+            { "measures (stats)", measure_seconds },
+        };
+        std::string text = fmt::format("{:<26}{:>10}{:>12}{:>8}\n", "phase", "s", "ms/step", "%");
+        double listed = 0.0;
+        const double per_step = steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0;
+        for (const Row& row : rows) {
+            listed += row.seconds;
+            text += fmt::format("{:<26}{:>10.3f}{:>12.3f}{:>8.1f}\n", row.phase, row.seconds,
+                row.seconds * per_step, 100.0 * row.seconds / std::max(total_seconds, 1e-12));
+        }
+        const double other = std::max(0.0, total_seconds - listed);
+        text += fmt::format("{:<26}{:>10.3f}{:>12.3f}{:>8.1f}\n", "other", other, other * per_step,
+            100.0 * other / std::max(total_seconds, 1e-12));
+        text += fmt::format("{:<26}{:>10.3f}{:>12.3f}{:>8.1f}\n", "total", total_seconds,
+            total_seconds * per_step, 100.0);
+        return text;
+    }
+
+    void write_text_atomically(const std::string& path, const std::string& text)
+    {
+        AtomicFile file(path);
+        {
+            std::ofstream out(file.temp_path(), std::ios::binary);
+            out << text;
+            out.close();
+            if (!out)
+                throw_error("{}: cannot write", path);
+        }
+        file.commit();
+    }
+
+} // namespace
+
+void run_simulation(const RunOptions& options)
+{
+    Timer total;
+    const Scene scene = read_scene(options.scene);
+    const SolverKind solver_kind = parse_solver_kind(options.solver);
+    if (options.frames < 0)
+        throw_error("--frames {} must be positive", options.frames);
+    const int frames = options.frames > 0 ? options.frames : scene.frames;
+    if (options.output.empty())
+        throw_error("mat-run needs an output directory (-o DIR)");
+    if (!options.stats.empty()) {
+        const auto parent = std::filesystem::path(options.stats).parent_path();
+        if (!parent.empty() && !std::filesystem::is_directory(parent))
+            throw_error(
+                "--stats {}: the directory {} does not exist", options.stats, parent.string());
+    }
+
+    Simulation simulation(scene, solver_kind);
+    // The output directory appears only once the inputs are known good.
+    std::error_code error;
+    std::filesystem::create_directories(options.output, error);
+    if (error || !std::filesystem::is_directory(options.output))
+        throw_error("{}: cannot create the output directory ({})", options.output,
+            error ? error.message() : "not a directory");
+    const nlohmann::json run_json { { "scene", options.scene }, { "solver", options.solver },
+        { "dt", scene.time.dt }, { "iterations", scene.time.iterations },
+        { "steps_per_frame", scene.steps_per_frame }, { "frames", frames },
+        { "threads", thread_count() } };
+    Exporter exporter(simulation, scene.output, options.output, run_json.dump());
+    const bool stats = !options.stats.empty();
+    const bool measure = stats || exporter.wants_stretch();
+    logger().info("{}: {} bodies, dt {} s, {} steps per frame, {} frames, {} iterations, {} "
+                  "solver",
+        scene.file, simulation.bodies().size(), scene.time.dt, scene.steps_per_frame, frames,
+        scene.time.iterations, solver_kind == SolverKind::full ? "full-space" : "semi-reduced");
+    const double setup_seconds = total.seconds();
+
+    std::vector<VecX> tet_strain(simulation.bodies().size());
+    nlohmann::json frame_stats = nlohmann::json::array();
+    double export_seconds = 0.0, measure_seconds = 0.0;
+    SolverTimings before = total_timings(simulation);
+    Timer loop;
+
+    auto output_frame = [&](int frame, double export_before, const std::vector<StepReport>& reports,
+                            double step_seconds) {
+        Timer timer;
+        nlohmann::json bodies = nlohmann::json::array();
+        if (measure) {
+            for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
+                const Body& body = simulation.bodies()[b];
+                const BodyMeasures m
+                    = measure_body(*body.model, body.state, scene.gravity, &tet_strain[b]);
+                nlohmann::json entry { { "name", body.name },
+                    { "energy",
+                        { { "kinetic", m.kinetic }, { "potential", m.potential },
+                            { "elastic", m.elastic },
+                            { "total", m.kinetic + m.potential + m.elastic } } },
+                    { "max_strain", m.max_strain } };
+                if (b < reports.size())
+                    entry["contact"] = { { "candidates", reports[b].contacts },
+                        { "active", reports[b].active_contacts },
+                        { "sweeps", reports[b].contact_sweeps },
+                        { "max_penetration", reports[b].max_penetration } };
+                bodies.push_back(std::move(entry));
+            }
+        }
+        measure_seconds += timer.seconds();
+        timer.restart();
+        exporter.write_frame(frame, simulation.time(), simulation, tet_strain);
+        const double this_export = timer.seconds();
+        export_seconds += this_export;
+        if (stats) {
+            const SolverTimings now = total_timings(simulation);
+            nlohmann::json entry { { "frame", frame }, { "time", simulation.time() },
+                { "steps", simulation.steps() },
+                { "iterations", now.iterations - before.iterations },
+                { "step_seconds", step_seconds },
+                { "phase_seconds", phase_json(now, before, this_export + export_before, 1.0) },
+                { "bodies", std::move(bodies) } };
+            frame_stats.push_back(std::move(entry));
+            before = now;
+        }
+    };
+
+    output_frame(0, 0.0, {}, 0.0);
+    ProgressBar progress("mat-run", static_cast<std::int64_t>(frames) * scene.steps_per_frame);
+    std::vector<StepReport> reports(simulation.bodies().size());
+    for (int frame = 1; frame <= frames; ++frame) {
+        Timer step_timer;
+        for (auto& r : reports)
+            r = StepReport {};
+        for (int s = 0; s < scene.steps_per_frame; ++s) {
+            simulation.step();
+            for (std::size_t b = 0; b < reports.size(); ++b) {
+                const StepReport& last = simulation.bodies()[b].solver->last_report();
+                reports[b].contacts = std::max(reports[b].contacts, last.contacts);
+                reports[b].active_contacts
+                    = std::max(reports[b].active_contacts, last.active_contacts);
+                reports[b].contact_sweeps += last.contact_sweeps;
+                reports[b].max_penetration
+                    = std::max(reports[b].max_penetration, last.max_penetration);
+            }
+            progress.advance();
+        }
+        output_frame(frame, 0.0, reports, step_timer.seconds());
+    }
+    progress.finish();
+    Timer finish_timer;
+    exporter.finish();
+    export_seconds += finish_timer.seconds();
+    const double loop_seconds = loop.seconds();
+
+    const SolverTimings timings = total_timings(simulation);
+    const long steps = simulation.steps();
+    std::printf("simulated %.4g s in %ld steps (%d frames, %ld files) in %.3f s, setup %.3f s, "
+                "peak RSS %.0f MB\n",
+        simulation.time(), steps, frames, exporter.files_written(), loop_seconds, setup_seconds,
+        peak_rss_bytes() / 1e6);
+    std::fputs(timing_table(timings, export_seconds, measure_seconds, loop_seconds, steps).c_str(),
+        stdout);
+    std::fflush(stdout);
+
+    if (stats) {
+        nlohmann::json document { { "run", run_json }, { "setup_seconds", setup_seconds },
+            { "loop_seconds", loop_seconds }, { "steps", steps },
+            { "peak_rss_bytes", peak_rss_bytes() },
+            { "ms_per_step",
+                phase_json(timings, SolverTimings {}, export_seconds,
+                    steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0) },
+            { "frames", std::move(frame_stats) } };
+        write_text_atomically(options.stats, document.dump(1) + "\n");
+    }
+}
+
+} // namespace mat

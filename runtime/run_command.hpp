@@ -1,0 +1,21 @@
+#pragma once
+// mat-run's main job: read a scene, build the bodies, step them, write frames, report timings
+// and (with --stats) per-frame statistics as JSON.
+
+#include <string>
+
+namespace mat {
+
+struct RunOptions {
+    std::string scene; ///< scene file (JSON)
+    std::string output; ///< output directory (created if missing)
+    int frames = 0; ///< > 0 overrides the scene's frame count
+    std::string solver = "semi"; ///< "semi" (semi-reduced PD) or "full" (full-space PD)
+    std::string stats; ///< --stats FILE.json, "" for none
+};
+
+/// Runs the scene. Throws mat::Error on bad input or a failing solve; files already written
+/// stay (each one is complete), the trajectory cache and the stats file only appear at the end.
+void run_simulation(const RunOptions& options);
+
+} // namespace mat

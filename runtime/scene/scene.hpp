@@ -1,0 +1,147 @@
+#pragma once
+// The scene file mat-run reads: a JSON document of time settings, gravity, solver settings,
+// objects (a bake each, placed, with a material and pinned regions), colliders and output.
+// Every key is declared once, with its type, default and doc, in the table of
+// runtime/scene/scene_schema.cpp; the parser and scene_reference_markdown() are driven by it.
+// The defaults live in that table only: a Scene is meant to come from parse_scene(), which
+// fills every field.
+//
+// Units are SI. Pin regions are in the bake's coordinates (before the object is placed).
+// Bake paths in the file are relative to the scene file's directory; a parsed Scene holds them
+// absolute and normalized.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/eigen_types.hpp"
+
+namespace mat {
+
+struct TimeSettings {
+    double dt = 0.0; ///< time step, s
+    /// output frames after the initial one. After parsing: the effective count (derived from
+    /// time.duration when that is given), equal to Scene::frames.
+    int frames = 0;
+    std::optional<double> duration; ///< s, as given (frames is derived from it)
+    std::optional<double> fps; ///< output frames per second, as given
+    int iterations = 0; ///< PD local/global iterations per step
+};
+
+struct SolverSettings {
+    double damping = 0.0; ///< per-step velocity scaling in [0, 1)
+    double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
+    double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
+};
+
+struct MaterialSettings {
+    double youngs_modulus = 0.0; ///< E, Pa
+    double poisson_ratio = 0.0; ///< nu in [0, 0.5)
+    double density = 0.0; ///< kg / m^3
+    std::optional<Vec2> strain_limits; ///< [min, max] singular values, 0 <= min <= 1 <= max
+};
+
+enum class PinKind { box, sphere, nodes };
+
+struct PinBox {
+    Vec3 min = Vec3::Zero();
+    Vec3 max = Vec3::Zero(); ///< componentwise >= min
+};
+
+struct PinSphere {
+    Vec3 center = Vec3::Zero();
+    double radius = 0.0; ///< > 0
+};
+
+/// One keyframe of a pin region's prescribed rigid motion (see pin_motion.hpp).
+struct PinKeyframe {
+    double time = 0.0; ///< s, strictly increasing along the list
+    Vec3 translation = Vec3::Zero(); ///< displacement of the region, m
+    Vec3 rotation_degrees = Vec3::Zero(); ///< XYZ Euler angles about the region's rest centroid
+};
+
+/// A pinned region of an object: exactly one of box, sphere or nodes (told by `kind`).
+struct PinRegion {
+    PinKind kind = PinKind::box;
+    PinBox box; ///< when kind == box: the nodes inside the closed box
+    PinSphere sphere; ///< when kind == sphere: the nodes inside the closed ball
+    std::vector<int> nodes; ///< when kind == nodes: tet-mesh node indices (>= 0, not yet
+                            ///< checked against the bake)
+    std::vector<PinKeyframe> motion; ///< empty = the region stays at rest
+};
+
+struct ObjectSettings {
+    std::string name; ///< unique among the objects
+    std::string bake; ///< absolute, normalized path of the bake file
+    Vec3 position = Vec3::Zero(); ///< translation applied after the rotation, m
+    /// XYZ Euler angles, degrees: rotate about x, then y, then z, about the bake's origin
+    /// (see rotation_from_euler_degrees in pin_motion.hpp)
+    Vec3 rotation_degrees = Vec3::Zero();
+    Vec3 velocity = Vec3::Zero(); ///< initial velocity, m/s
+    Vec3 angular_velocity = Vec3::Zero(); ///< initial, rad/s, about the centre of mass
+    MaterialSettings material;
+    std::vector<PinRegion> pins;
+};
+
+struct ColliderSettings {
+    std::string type; ///< "plane"
+    Vec3 point = Vec3::Zero(); ///< a point of the plane
+    Vec3 normal = Vec3::UnitY(); ///< unit length (normalized by the parser)
+    double friction = 0.0; ///< Coulomb coefficient, >= 0
+};
+
+struct OutputSettings {
+    std::vector<std::string> formats; ///< distinct, from obj, ply, vtu, h5
+    /// steps per output frame. After parsing: the effective value (derived from time.fps when
+    /// that is given), equal to Scene::steps_per_frame.
+    int every = 0;
+    std::vector<std::string> fields; ///< distinct, from velocity, stretch
+};
+
+struct Scene {
+    std::string file; ///< the scene path, as given (for messages)
+    TimeSettings time;
+    Vec3 gravity = Vec3::Zero(); ///< m/s^2
+    SolverSettings solver;
+    std::vector<ObjectSettings> objects; ///< at least one
+    std::vector<ColliderSettings> colliders;
+    OutputSettings output;
+
+    int steps_per_frame = 0; ///< derived: time steps per output frame, >= 1
+    int frames = 0; ///< derived: output frames after the initial one, >= 1
+    double frame_interval() const { return steps_per_frame * time.dt; } ///< s between frames
+};
+
+struct SceneOptions {
+    /// Check that every bake file exists (off only for tools and tests that look at a scene
+    /// without its bakes; paths are resolved either way).
+    bool check_files = true;
+};
+
+/// Reads and checks the scene at `path`. Throws mat::Error with one line naming the file and,
+/// for a JSON syntax error, the line and column, else the key path (e.g.
+/// `objects[1].material.poisson_ratio`) and the problem: unknown key, wrong type, value out of
+/// range, missing required key, missing bake file, or inconsistent time settings.
+Scene read_scene(const std::string& path, const SceneOptions& options = {});
+
+/// The same on JSON text in memory. `path_for_messages` names the file in messages and is the
+/// scene path that relative bake paths are resolved against (its directory).
+Scene parse_scene(const std::string& json_text, const std::string& path_for_messages,
+    const SceneOptions& options = {});
+
+/// One declared key, as the reference shows it.
+struct SceneKeyInfo {
+    std::string section; ///< e.g. "" (top level), "time", "objects[]", "objects[].pins[].box"
+    std::string key; ///< e.g. "dt"
+    std::string type; ///< e.g. "number > 0"
+    std::string default_value; ///< e.g. "1/60", "required", "none"
+    std::string doc; ///< one line
+};
+
+/// Every declared key, in table order.
+std::vector<SceneKeyInfo> scene_keys();
+
+/// The Markdown reference of the scene format: one table per section (key, type, default, doc).
+std::string scene_reference_markdown();
+
+} // namespace mat

@@ -1,0 +1,363 @@
+#include "runtime/scene/scene_schema.hpp"
+
+#include <type_traits>
+
+#include <fmt/format.h>
+
+#include "common/error.hpp"
+
+namespace mat::scene_schema {
+
+namespace {
+
+    using Store = std::function<void(Target, const Value&)>;
+
+    template <typename Member, typename V> void assign(Member& member, const V& value)
+    {
+        if constexpr (std::is_same_v<Member, V> || std::is_same_v<Member, std::optional<V>>)
+            member = value;
+        else
+            MAT_CHECK(false, "scene schema: a key's value type does not match its member");
+    }
+
+    /// A key whose checked value is stored into `member` of the section's struct.
+    template <typename S, typename M>
+    KeySpec value_key(Section section, const char* name, Type type, M S::*member)
+    {
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = type;
+        key.store = [member](Target target, const Value& value) {
+            S& object = *std::get<S*>(target);
+            std::visit([&](const auto& v) { assign(object.*member, v); }, value);
+        };
+        return key;
+    }
+
+    /// A key whose value is a section that fills `member`. Absent sections are filled with
+    /// their defaults unless set_default(nullptr) says the section is optional.
+    template <typename S, typename M>
+    KeySpec section_key(Section section, const char* name, Section child, M S::*member)
+    {
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = Type::section;
+        key.child = child;
+        key.default_value = Json::object();
+        key.open = [member](Target target) -> Target { return &((*std::get<S*>(target)).*member); };
+        return key;
+    }
+
+    /// A key whose value is a list of sections, each appended to the vector `member`.
+    template <typename S, typename E>
+    KeySpec array_key(Section section, const char* name, Section child, std::vector<E> S::*member)
+    {
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = Type::section_array;
+        key.child = child;
+        key.default_value = Json::array();
+        key.open = [member](Target target) -> Target {
+            return &((*std::get<S*>(target)).*member).emplace_back();
+        };
+        return key;
+    }
+
+    std::string check_not_empty(const Value& value)
+    {
+        return std::get<std::string>(value).empty() ? "must not be empty" : "";
+    }
+
+    std::string check_nonzero(const Value& value)
+    {
+        return std::get<Vec3>(value).squaredNorm() > 0.0 ? "" : "must not be the zero vector";
+    }
+
+    std::string check_strain_limits(const Value& value)
+    {
+        const Vec2& limits = std::get<Vec2>(value);
+        if (limits[0] >= 0.0 && limits[0] <= 1.0 && limits[1] >= 1.0)
+            return "";
+        return fmt::format("[{}, {}] must satisfy 0 <= min <= 1 <= max", limits[0], limits[1]);
+    }
+
+    std::vector<KeySpec> make_table()
+    {
+        using S = Section;
+        using T = Type;
+        const Json zero = Json::array({ 0, 0, 0 });
+        return {
+            // Top level.
+            section_key(S::root, "time", S::time, &Scene::time).set_doc("time stepping"),
+            value_key(S::root, "gravity", T::vec3, &Scene::gravity)
+                .set_default(Json::array({ 0, -9.81, 0 }))
+                .set_doc("gravitational acceleration, m/s^2"),
+            section_key(S::root, "solver", S::solver, &Scene::solver).set_doc("solver settings"),
+            array_key(S::root, "objects", S::object, &Scene::objects)
+                .set_required()
+                .set_min_count(1)
+                .set_doc("the deformable bodies, at least one"),
+            array_key(S::root, "colliders", S::collider, &Scene::colliders)
+                .set_doc("static colliders"),
+            section_key(S::root, "output", S::output, &Scene::output)
+                .set_doc("what is written, and how often"),
+
+            // time
+            value_key(S::time, "dt", T::number, &TimeSettings::dt)
+                .set_default(1.0 / 60.0, "1/60")
+                .above(0)
+                .set_doc("time step h, s"),
+            value_key(S::time, "frames", T::integer, &TimeSettings::frames)
+                .set_default(60)
+                .at_least(1)
+                .set_doc("output frames after the initial one; not with duration"),
+            value_key(S::time, "duration", T::number, &TimeSettings::duration)
+                .above(0)
+                .set_doc("simulated time, s: frames = round(duration * output frames per "
+                         "second); not with frames"),
+            value_key(S::time, "fps", T::number, &TimeSettings::fps)
+                .above(0)
+                .set_doc("output frames per second: steps per frame = 1 / (fps * dt), which "
+                         "must be a whole number >= 1 (to 1e-6 relative); not with "
+                         "output.every"),
+            value_key(S::time, "iterations", T::integer, &TimeSettings::iterations)
+                .set_default(10)
+                .at_least(1)
+                .set_doc("PD local/global iterations per step"),
+
+            // solver
+            value_key(S::solver, "damping", T::number, &SolverSettings::damping)
+                .set_default(0)
+                .at_least(0)
+                .below(1)
+                .set_doc("velocities are scaled by (1 - damping) after each step"),
+            value_key(S::solver, "volume_tolerance", T::number, &SolverSettings::volume_tolerance)
+                .set_default(0.01)
+                .at_least(0)
+                .below(1)
+                .set_doc("volume constraints keep det F in [1 - tolerance, 1 + tolerance]"),
+            value_key(S::solver, "contact_margin", T::number, &SolverSettings::contact_margin)
+                .set_default(0.01)
+                .at_least(0)
+                .set_doc("nodes this close to a plane (fraction of the bake's bounding-box "
+                         "diagonal) are contact candidates for a step"),
+
+            // objects[]
+            value_key(S::object, "name", T::string, &ObjectSettings::name)
+                .set_default_doc("object0, object1, ...")
+                .set_check(check_not_empty)
+                .set_doc("unique name; by default \"object\" and the index in objects"),
+            value_key(S::object, "bake", T::path, &ObjectSettings::bake)
+                .set_required()
+                .set_doc("the bake file (mat-bake output), relative to the scene file's "
+                         "directory"),
+            value_key(S::object, "position", T::vec3, &ObjectSettings::position)
+                .set_default(zero)
+                .set_doc("translation applied after the rotation, m"),
+            value_key(S::object, "rotation_degrees", T::vec3, &ObjectSettings::rotation_degrees)
+                .set_default(zero)
+                .set_doc("XYZ Euler angles, degrees: about x, then y, then z (fixed axes), "
+                         "about the bake's origin"),
+            value_key(S::object, "velocity", T::vec3, &ObjectSettings::velocity)
+                .set_default(zero)
+                .set_doc("initial velocity, m/s"),
+            value_key(S::object, "angular_velocity", T::vec3, &ObjectSettings::angular_velocity)
+                .set_default(zero)
+                .set_doc("initial angular velocity about the centre of mass, rad/s"),
+            section_key(S::object, "material", S::material, &ObjectSettings::material)
+                .set_doc("elastic material"),
+            array_key(S::object, "pins", S::pin, &ObjectSettings::pins)
+                .set_doc("pinned regions, in the bake's coordinates (before the object is "
+                         "placed)"),
+
+            // objects[].material
+            value_key(S::material, "youngs_modulus", T::number, &MaterialSettings::youngs_modulus)
+                .set_default(1e5)
+                .above(0)
+                .set_doc("Young's modulus E, Pa"),
+            value_key(S::material, "poisson_ratio", T::number, &MaterialSettings::poisson_ratio)
+                .set_default(0.3)
+                .at_least(0)
+                .below(0.5)
+                .set_doc("Poisson's ratio"),
+            value_key(S::material, "density", T::number, &MaterialSettings::density)
+                .set_default(1000)
+                .above(0)
+                .set_doc("mass density, kg/m^3"),
+            value_key(S::material, "strain_limits", T::interval, &MaterialSettings::strain_limits)
+                .set_check(check_strain_limits)
+                .set_doc("[min, max] bounds on the principal stretches, 0 <= min <= 1 <= max"),
+
+            // objects[].pins[]: exactly one of box, sphere, nodes.
+            section_key(S::pin, "box", S::box, &PinRegion::box)
+                .set_default(nullptr)
+                .set_doc("the nodes in a box; exactly one of box, sphere, nodes"),
+            section_key(S::pin, "sphere", S::sphere, &PinRegion::sphere)
+                .set_default(nullptr)
+                .set_doc("the nodes in a ball; exactly one of box, sphere, nodes"),
+            value_key(S::pin, "nodes", T::integers, &PinRegion::nodes)
+                .at_least(0)
+                .set_min_count(1)
+                .set_doc("tet-mesh node indices; exactly one of box, sphere, nodes"),
+            array_key(S::pin, "motion", S::keyframe, &PinRegion::motion)
+                .set_doc("keyframes of a rigid motion; translation and Euler angles are "
+                         "interpolated linearly, the first holds before it, the last after it"),
+
+            // objects[].pins[].box
+            value_key(S::box, "min", T::vec3, &PinBox::min)
+                .set_required()
+                .set_doc("lower corner, m"),
+            value_key(S::box, "max", T::vec3, &PinBox::max)
+                .set_required()
+                .set_doc("upper corner, >= min componentwise, m"),
+
+            // objects[].pins[].sphere
+            value_key(S::sphere, "center", T::vec3, &PinSphere::center)
+                .set_required()
+                .set_doc("centre, m"),
+            value_key(S::sphere, "radius", T::number, &PinSphere::radius)
+                .set_required()
+                .above(0)
+                .set_doc("radius, m"),
+
+            // objects[].pins[].motion[]
+            value_key(S::keyframe, "time", T::number, &PinKeyframe::time)
+                .set_required()
+                .at_least(0)
+                .set_doc("s, strictly increasing along the list"),
+            value_key(S::keyframe, "translation", T::vec3, &PinKeyframe::translation)
+                .set_default(zero)
+                .set_doc("displacement of the region, m"),
+            value_key(S::keyframe, "rotation_degrees", T::vec3, &PinKeyframe::rotation_degrees)
+                .set_default(zero)
+                .set_doc("XYZ Euler angles, degrees, about the region's rest centroid"),
+
+            // colliders[]
+            value_key(S::collider, "type", T::string, &ColliderSettings::type)
+                .set_required()
+                .set_choices({ "plane" })
+                .set_doc("collider kind"),
+            value_key(S::collider, "point", T::vec3, &ColliderSettings::point)
+                .set_default(zero)
+                .set_doc("a point on the plane, m"),
+            value_key(S::collider, "normal", T::vec3, &ColliderSettings::normal)
+                .set_default(Json::array({ 0, 1, 0 }))
+                .set_check(check_nonzero)
+                .set_doc("normal pointing to the free side, non-zero (normalized on reading)"),
+            value_key(S::collider, "friction", T::number, &ColliderSettings::friction)
+                .set_default(0.5)
+                .at_least(0)
+                .set_doc("Coulomb friction coefficient"),
+
+            // output
+            value_key(S::output, "format", T::strings, &OutputSettings::formats)
+                .set_default(Json::array({ "obj" }))
+                .set_choices({ "obj", "ply", "vtu", "h5" })
+                .set_accept_single()
+                .set_min_count(1)
+                .set_doc("file formats, a string or a list (h5: one HDF5 trajectory cache)"),
+            value_key(S::output, "every", T::integer, &OutputSettings::every)
+                .set_default(1)
+                .at_least(1)
+                .set_doc("time steps per output frame; not with time.fps"),
+            value_key(S::output, "fields", T::strings, &OutputSettings::fields)
+                .set_default(Json::array())
+                .set_choices({ "velocity", "stretch" })
+                .set_doc("extra per-vertex fields written to vtu and h5"),
+        };
+    }
+
+    std::string format_number(double value)
+    {
+        return fmt::format("{}", value);
+    }
+
+} // namespace
+
+bool Limits::contains(double value) const
+{
+    if (lower && (lower_open ? !(value > *lower) : !(value >= *lower)))
+        return false;
+    if (upper && (upper_open ? !(value < *upper) : !(value <= *upper)))
+        return false;
+    return true;
+}
+
+std::string Limits::text() const
+{
+    if (lower && upper)
+        return fmt::format("{}{}, {}{}", lower_open ? "(" : "[", format_number(*lower),
+            format_number(*upper), upper_open ? ")" : "]");
+    if (lower)
+        return fmt::format("{} {}", lower_open ? ">" : ">=", format_number(*lower));
+    if (upper)
+        return fmt::format("{} {}", upper_open ? "<" : "<=", format_number(*upper));
+    return "";
+}
+
+const std::vector<KeySpec>& key_table()
+{
+    static const std::vector<KeySpec> table = make_table();
+    return table;
+}
+
+std::string section_path(Section section)
+{
+    if (section == Section::root)
+        return "";
+    for (const KeySpec& key : key_table()) {
+        if ((key.type == Type::section || key.type == Type::section_array)
+            && key.child == section) {
+            const std::string parent = section_path(key.section);
+            return (parent.empty() ? "" : parent + ".") + key.name
+                + (key.type == Type::section_array ? "[]" : "");
+        }
+    }
+    MAT_CHECK(false, "scene schema: a section has no key that opens it");
+    return "";
+}
+
+std::string join_key(const std::string& path, const std::string& key)
+{
+    return path.empty() ? key : path + "." + key;
+}
+
+std::string element_path(const std::string& path, std::size_t index)
+{
+    return fmt::format("{}[{}]", path, index);
+}
+
+std::string short_json(const Json& value, std::size_t max_length)
+{
+    std::string text;
+    switch (value.type()) {
+    case Json::value_t::number_float:
+        text = format_number(value.get<double>());
+        break;
+    case Json::value_t::number_integer:
+        text = fmt::format("{}", value.get<std::int64_t>());
+        break;
+    case Json::value_t::number_unsigned:
+        text = fmt::format("{}", value.get<std::uint64_t>());
+        break;
+    case Json::value_t::array:
+        text = "[";
+        for (std::size_t i = 0; i < value.size() && text.size() <= max_length; ++i)
+            text += (i == 0 ? "" : ", ") + short_json(value[i], max_length);
+        text += "]";
+        break;
+    default:
+        // Strings (quoted, escaped), booleans, null, objects: nlohmann's compact form, with
+        // non-ASCII bytes escaped so that the message stays printable.
+        text = value.dump(-1, ' ', true, Json::error_handler_t::replace);
+        break;
+    }
+    if (text.size() > max_length)
+        text = text.substr(0, max_length) + "...";
+    return text;
+}
+
+} // namespace mat::scene_schema

@@ -1,0 +1,76 @@
+#pragma once
+// A scene's bodies, built from their bakes and stepped together: per body an immutable Model,
+// a solver, its State, its pinned regions with their prescribed motion, and the surface view the
+// exporter reads. Knows nothing of output files (runtime/output/exporter.hpp writes frames).
+//
+// Placement: a body's bake coordinates X map to the world by x = R X + t (the object's
+// rotation_degrees and position). The model stays in bake coordinates: PD energies are rotation
+// invariant and the handle basis reproduces any affine map, so the placed rest state is exact.
+// Pin regions select nodes by their bake coordinates; a pinned node's target at time t is the
+// placement of its region's motion: R (M(t) X) + t_placement.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/eigen_types.hpp"
+#include "runtime/model.hpp"
+#include "runtime/output/surface_view.hpp"
+#include "runtime/pd/solver.hpp"
+#include "runtime/scene/scene.hpp"
+#include "runtime/state.hpp"
+
+namespace mat {
+
+enum class SolverKind { semi_reduced, full };
+
+/// "semi" or "full" -> SolverKind; throws mat::Error otherwise.
+SolverKind parse_solver_kind(const std::string& name);
+
+/// One pinned region of a body: its nodes (indices into the model's pinned list and the mesh).
+struct PinGroup {
+    const PinRegion* region = nullptr;
+    std::vector<int> nodes; ///< tet-mesh nodes (each node in one group only)
+    std::vector<int> slots; ///< their rows in the model's pin list
+    Vec3 centroid = Vec3::Zero(); ///< rest centroid, bake coordinates
+};
+
+struct Body {
+    std::string name;
+    std::unique_ptr<Model> model;
+    std::unique_ptr<PdSolver> solver;
+    std::unique_ptr<SurfaceView> surface;
+    State state;
+    State next;
+    Mat3 rotation = Mat3::Identity(); ///< placement
+    Vec3 translation = Vec3::Zero();
+    std::vector<PinGroup> pins;
+    MatX3 pin_targets; ///< #pinned x 3, workspace
+    Index num_handles = 0;
+};
+
+class Simulation {
+public:
+    /// Reads every bake, builds the models and solvers. Throws mat::Error naming the scene key
+    /// for a pin region that selects no node or a node index out of range, and the bake file
+    /// for a bake that cannot be read.
+    Simulation(const Scene& scene, SolverKind solver);
+
+    /// Advances every body by one time step dt.
+    void step();
+
+    double time() const { return m_steps * m_scene.time.dt; }
+    long steps() const { return m_steps; }
+    const Scene& scene() const { return m_scene; }
+    std::vector<Body>& bodies() { return m_bodies; }
+    const std::vector<Body>& bodies() const { return m_bodies; }
+
+private:
+    void update_pin_targets(Body& body, double time);
+
+    const Scene& m_scene;
+    std::vector<Body> m_bodies;
+    long m_steps = 0;
+};
+
+} // namespace mat
