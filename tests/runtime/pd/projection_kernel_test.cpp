@@ -156,7 +156,9 @@ namespace {
             EXPECT_LT(e.volume_excess, k == rank0 ? 1e-4 : 1e-7);
         }
         // Unique projections agree with the reference. Large stretch (singular values 0.1..4):
-        // the float Jacobi stage's error survives the double refinement at ~1e-7.
+        // the float Jacobi stage's error survives the double refinement at ~1e-7; its volume
+        // projection can be a different stationary point than the reference's (a strong
+        // one-axis stretch), never a farther one (the excess check above).
         for (const Kind k : { near_rotation, repeated }) {
             EXPECT_LT(errors[k].rotation, 1e-11) << k;
             EXPECT_LT(errors[k].volume, 1e-11) << k;
@@ -167,7 +169,6 @@ namespace {
         EXPECT_LT(errors[random].rotation, 1e-9);
         EXPECT_LT(errors[random].limit, 1e-9);
         EXPECT_LT(errors[large_stretch].rotation, 1e-6);
-        EXPECT_LT(errors[large_stretch].volume, 1e-6);
         EXPECT_LT(errors[large_stretch].limit, 1e-6);
     }
 

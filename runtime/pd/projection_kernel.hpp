@@ -1,0 +1,53 @@
+#pragma once
+// The local step's projections, vectorized across tets: blocks of `projection_lanes`
+// deformation gradients in structure-of-arrays form, branch-free (selects, fixed iteration
+// counts), written as plain loops over lanes that the compiler turns into SIMD code.
+//
+// Per lane, F = U S V^T with U, V rotations and S signed (an inverted F has its smallest singular
+// value negative), computed as in McAdams et al. 2011 ("Computing the SVD of 3x3 matrices with
+// minimal branching and elementary floating point operations"):
+//   1. Jacobi eigen-decomposition of F^T F in float with approximate Givens rotations, V kept as
+//      a quaternion (4 sweeps);
+//   2. in double: V from the normalized quaternion (orthogonal to double precision), two more
+//      Jacobi sweeps on V^T F^T F V in double (each roughly squares the float stage's error),
+//      columns sorted by singular value with conditional swaps that keep det V = +1, and a
+//      Givens QR of F V -> U (a rotation) and the signed singular values.
+// Then the projections, all of the form U diag(.) V^T:
+//   rotation  R = U V^T (Bouaziz et al. 2014, eq. 19; nearest rotation, det +1);
+//   volume    U D V^T, D nearest to S with prod D = clamp(det F, 1 - eps, 1 + eps) (section 5.2);
+//   limit     U clamp(S, min, max) V^T (strain limiting, Bouaziz et al. 2014 section 5.1).
+// A block returns the weighted sum w_r R + w_v P_vol + w_l P_lim, written as
+// (w_v + w_l) F + U diag(w_r + w_v (d - s) + w_l (c - s)) V^T so that inactive volume and limit
+// constraints give F exactly. The double second half keeps a body at rest at rest: with V
+// orthogonal to double precision the polar error scales with sigma_i - sigma_j.
+// project_tet (local_step.hpp) is the exact scalar reference this kernel is tested against.
+
+#include <limits>
+
+namespace mat {
+
+/// Lanes per block: 16 floats fill one AVX-512 register (two for doubles).
+inline constexpr int projection_lanes = 16;
+
+/// A block of 3x3 matrices, structure of arrays: m[3 r + c][lane] = M_lane(r, c).
+struct alignas(64) MatBlock {
+    double m[9][projection_lanes];
+};
+
+/// Projection settings and the weights of the three projections in the returned sum.
+struct ProjectionParams {
+    double volume_tolerance = 0.0; ///< eps: det is kept in [1 - eps, 1 + eps], in [0, 1)
+    double limit_min = 0.0; ///< strain limits on the singular values, 0 <= min <= 1 <= max
+    double limit_max = std::numeric_limits<double>::infinity();
+    double rotation_weight = 1.0; ///< w_r
+    double volume_weight = 0.0; ///< w_v
+    double limit_weight = 0.0; ///< w_l
+};
+
+/// target_lane = w_r R(F) + w_v P_vol(F) + w_l P_lim(F) for every lane of `f` (see the file
+/// comment). Finite for every finite F, also flat, collapsed or inverted ones. The volume and
+/// limit projections are skipped for a block none of whose lanes needs them (a branch per
+/// block, never per lane: the result of a lane does not depend on its neighbours).
+void project_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target);
+
+} // namespace mat
