@@ -18,7 +18,8 @@ namespace {
         material.poisson_ratio = settings.poisson_ratio;
         material.density = settings.density;
         if (settings.strain_limits) {
-            throw_error("material.strain_limits: strain limiting is not implemented yet");
+            material.strain_limit_min = (*settings.strain_limits)(0);
+            material.strain_limit_max = (*settings.strain_limits)(1);
         }
         return material;
     }

@@ -24,14 +24,17 @@ BodyMeasures measure_body(
     VecX energy(t), strain(t);
     const double mu = 0.5 * model.strain_weight(); // w_strain = 2 mu
     const double lambda = model.volume_weight();
+    const double limit = model.strain_limit_weight();
     tbb::parallel_for(tbb::blocked_range<Index>(0, t), [&](const tbb::blocked_range<Index>& range) {
         for (Index e = range.begin(); e != range.end(); ++e) {
             const Mat3 f
                 = deformation_gradient(state.positions, model.tets(), model.dm_inverse(), e);
-            const TetProjection p = project_tet(f, model.volume_tolerance());
+            const TetProjection p = project_tet(f, model.volume_tolerance(),
+                model.material().strain_limit_min, model.material().strain_limit_max);
             const Mat3 d = f - p.rotation;
             energy(e) = model.rest_volumes()(e)
-                * (mu * d.squaredNorm() + 0.5 * lambda * (f - p.volume).squaredNorm());
+                * (mu * d.squaredNorm() + 0.5 * lambda * (f - p.volume).squaredNorm()
+                    + 0.5 * limit * (f - p.limit).squaredNorm());
             // F - R = U (S - I) V^T: its spectral norm is max |sigma_i - 1|.
             Eigen::SelfAdjointEigenSolver<Mat3> eigen;
             eigen.computeDirect(d.transpose() * d, Eigen::EigenvaluesOnly);

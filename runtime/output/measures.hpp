@@ -11,7 +11,8 @@ namespace mat {
 struct BodyMeasures {
     double kinetic = 0.0; ///< 1/2 sum m_i |v_i|^2, J
     double potential = 0.0; ///< -sum m_i g . x_i, J (zero at the origin)
-    /// The PD elastic energy sum_e vol_e (mu ||F - R||^2 + lambda/2 ||F - P_vol(F)||^2), J.
+    /// The PD elastic energy sum_e vol_e (mu ||F - R||^2 + lambda/2 ||F - P_vol(F)||^2
+    /// + w_limit/2 ||F - P_limit(F)||^2), J.
     double elastic = 0.0;
     double max_strain = 0.0; ///< max over tets of max_i |sigma_i - 1| (signed singular values)
 };
