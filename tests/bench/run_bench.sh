@@ -19,7 +19,7 @@ trap 'rm -rf "$work"' EXIT
     --medial "$work/creature/creature.ma" -o "$work/creature.h5" --tet-size 0.0095 > /dev/null
 cat > "$work/scene.json" <<SCENE
 {
-  "time": { "dt": 0.0333333333, "frames": $steps, "iterations": 10 },
+  "time": { "dt": 0.0333333333, "frames": 1, "iterations": 10 },
   "objects": [
     {
       "name": "creature", "bake": "creature.h5", "angular_velocity": [0, 2, 1],
