@@ -141,48 +141,48 @@ void run_simulation(const RunOptions& options)
     SolverTimings before = total_timings(simulation);
     Timer loop;
 
-    auto output_frame = [&](int frame, double export_before, const std::vector<StepReport>& reports,
-                            double step_seconds) {
-        Timer timer;
-        nlohmann::json bodies = nlohmann::json::array();
-        if (measure) {
-            for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
-                const Body& body = simulation.bodies()[b];
-                const BodyMeasures m
-                    = measure_body(*body.model, body.state, scene.gravity, &tet_strain[b]);
-                nlohmann::json entry { { "name", body.name },
-                    { "energy",
-                        { { "kinetic", m.kinetic }, { "potential", m.potential },
-                            { "elastic", m.elastic },
-                            { "total", m.kinetic + m.potential + m.elastic } } },
-                    { "max_strain", m.max_strain } };
-                if (b < reports.size())
-                    entry["contact"] = { { "candidates", reports[b].contacts },
-                        { "active", reports[b].active_contacts },
-                        { "sweeps", reports[b].contact_sweeps },
-                        { "max_penetration", reports[b].max_penetration } };
-                bodies.push_back(std::move(entry));
-            }
-        }
-        measure_seconds += timer.seconds();
-        timer.restart();
-        exporter.write_frame(frame, simulation.time(), simulation, tet_strain);
-        const double this_export = timer.seconds();
-        export_seconds += this_export;
-        if (stats) {
-            const SolverTimings now = total_timings(simulation);
-            nlohmann::json entry { { "frame", frame }, { "time", simulation.time() },
-                { "steps", simulation.steps() },
-                { "iterations", now.iterations - before.iterations },
-                { "step_seconds", step_seconds },
-                { "phase_seconds", phase_json(now, before, this_export + export_before, 1.0) },
-                { "bodies", std::move(bodies) } };
-            frame_stats.push_back(std::move(entry));
-            before = now;
-        }
-    };
+    auto output_frame
+        = [&](int frame, const std::vector<StepReport>& reports, double step_seconds) {
+              Timer timer;
+              nlohmann::json bodies = nlohmann::json::array();
+              if (measure) {
+                  for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
+                      const Body& body = simulation.bodies()[b];
+                      const BodyMeasures m
+                          = measure_body(*body.model, body.state, scene.gravity, &tet_strain[b]);
+                      nlohmann::json entry { { "name", body.name },
+                          { "energy",
+                              { { "kinetic", m.kinetic }, { "potential", m.potential },
+                                  { "elastic", m.elastic },
+                                  { "total", m.kinetic + m.potential + m.elastic } } },
+                          { "max_strain", m.max_strain } };
+                      if (b < reports.size())
+                          entry["contact"] = { { "candidates", reports[b].contacts },
+                              { "active", reports[b].active_contacts },
+                              { "sweeps", reports[b].contact_sweeps },
+                              { "max_penetration", reports[b].max_penetration } };
+                      bodies.push_back(std::move(entry));
+                  }
+              }
+              measure_seconds += timer.seconds();
+              timer.restart();
+              exporter.write_frame(frame, simulation.time(), simulation, tet_strain);
+              const double this_export = timer.seconds();
+              export_seconds += this_export;
+              if (stats) {
+                  const SolverTimings now = total_timings(simulation);
+                  nlohmann::json entry { { "frame", frame }, { "time", simulation.time() },
+                      { "steps", simulation.steps() },
+                      { "iterations", now.iterations - before.iterations },
+                      { "step_seconds", step_seconds },
+                      { "phase_seconds", phase_json(now, before, this_export, 1.0) },
+                      { "bodies", std::move(bodies) } };
+                  frame_stats.push_back(std::move(entry));
+                  before = now;
+              }
+          };
 
-    output_frame(0, 0.0, {}, 0.0);
+    output_frame(0, {}, 0.0);
     ProgressBar progress("mat-run", static_cast<std::int64_t>(frames) * scene.steps_per_frame);
     std::vector<StepReport> reports(simulation.bodies().size());
     for (int frame = 1; frame <= frames; ++frame) {
@@ -202,7 +202,7 @@ void run_simulation(const RunOptions& options)
             }
             progress.advance();
         }
-        output_frame(frame, 0.0, reports, step_timer.seconds());
+        output_frame(frame, reports, step_timer.seconds());
     }
     progress.finish();
     Timer finish_timer;
