@@ -173,20 +173,38 @@ struct H5Reader::Impl {
         }
     }
 
+    /// A dataset opened for reading, with its type and shape.
+    struct Opened {
+        std::string what; ///< "dataset '/path'", for messages
+        Hid dataset, space, type;
+        std::vector<hsize_t> dims;
+    };
+
+    Opened open_with_shape(const std::string& raw) const
+    {
+        Opened opened;
+        const std::string dataset_path = normalize(raw);
+        opened.dataset = open_dataset(dataset_path);
+        opened.space = Hid(H5Dget_space(opened.dataset.get()), H5Sclose);
+        opened.type = Hid(H5Dget_type(opened.dataset.get()), H5Tclose);
+        if (!opened.space.valid() || !opened.type.valid())
+            throw_error("{}: cannot read dataset '{}': {}", path, dataset_path, h5::reason());
+        opened.what = "dataset '" + dataset_path + "'";
+        opened.dims = dims_of(opened.space.get(), opened.what);
+        return opened;
+    }
+
     // Reads a rank-1 (into a vector) or rank-2 (into a row-major matrix) dataset of the
     // expected shape (H5Reader::any = unchecked).
     template <typename Out> Out read_dense(const std::string& raw, Index e0, Index e1 = any) const
     {
         using Scalar = typename Out::Scalar;
         constexpr int rank = Out::IsVectorAtCompileTime ? 1 : 2;
-        const std::string dataset_path = normalize(raw);
-        const Hid dataset = open_dataset(dataset_path);
-        const Hid space(H5Dget_space(dataset.get()), H5Sclose);
-        const Hid type(H5Dget_type(dataset.get()), H5Tclose);
-        if (!space.valid() || !type.valid())
-            throw_error("{}: cannot read dataset '{}': {}", path, dataset_path, h5::reason());
-        const std::string what = "dataset '" + dataset_path + "'";
-        const std::vector<hsize_t> dims = dims_of(space.get(), what);
+        const Opened opened = open_with_shape(raw);
+        const Hid& dataset = opened.dataset;
+        const Hid& type = opened.type;
+        const std::string& what = opened.what;
+        const std::vector<hsize_t>& dims = opened.dims;
         if (int(dims.size()) != rank) {
             const bool sized = e0 != any || (rank == 2 && e1 != any);
             throw_error("{}: {} has shape {}, expected a {}-D dataset{}{}", path, what,
@@ -212,14 +230,12 @@ struct H5Reader::Impl {
 
     RowMatX read_series_item(const std::string& raw, Index index, Index rows, Index cols) const
     {
-        const std::string dataset_path = normalize(raw);
-        const Hid dataset = open_dataset(dataset_path);
-        const Hid space(H5Dget_space(dataset.get()), H5Sclose);
-        const Hid type(H5Dget_type(dataset.get()), H5Tclose);
-        if (!space.valid() || !type.valid())
-            throw_error("{}: cannot read dataset '{}': {}", path, dataset_path, h5::reason());
-        const std::string what = "dataset '" + dataset_path + "'";
-        const std::vector<hsize_t> dims = dims_of(space.get(), what);
+        const Opened opened = open_with_shape(raw);
+        const Hid& dataset = opened.dataset;
+        const Hid& space = opened.space;
+        const Hid& type = opened.type;
+        const std::string& what = opened.what;
+        const std::vector<hsize_t>& dims = opened.dims;
         if (dims.empty() || dims.size() > 3)
             throw_error("{}: {} has shape {}, expected a series (1-D, 2-D or 3-D)", path, what,
                 h5::describe_dims(dims));

@@ -70,7 +70,7 @@ void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
 
 // Candidates: boundary nodes within the margin of a plane at the start of the step or at the
 // inertia target (the iterates move from s towards an equilibrium near both).
-void PdSolver::find_contacts(const Model& model, const State& in)
+void PdSolver::find_contacts(const State& in)
 {
     const Index num_planes = static_cast<Index>(m_options.planes.size());
     for (Index a = 0; a < static_cast<Index>(m_pairs.size()); ++a)
@@ -145,7 +145,7 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
 
     timer.restart();
     if (!m_options.planes.empty())
-        find_contacts(model, in);
+        find_contacts(in);
     m_timings.contact += timer.seconds();
     const Index m = static_cast<Index>(m_pairs.size());
 

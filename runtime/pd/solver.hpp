@@ -73,7 +73,7 @@ protected:
     GlobalStep& global_step() { return *m_global; }
 
 private:
-    void find_contacts(const Model& model, const State& in);
+    void find_contacts(const State& in);
 
     const Model* m_model;
     SolverOptions m_options;

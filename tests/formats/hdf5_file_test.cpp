@@ -9,6 +9,7 @@
 #include "common/error.hpp"
 #include "formats/hdf5_file.hpp"
 #include "tests/support/error_checks.hpp"
+#include "tests/support/random_data.hpp"
 #include "tests/support/temp_files.hpp"
 
 namespace mat {
@@ -21,15 +22,7 @@ namespace {
 
     using test::expect_error_containing;
 
-    MatX3 random_positions(Index rows, unsigned seed)
-    {
-        std::mt19937 rng(seed);
-        std::uniform_real_distribution<double> u(-1.0, 1.0);
-        MatX3 out(rows, 3);
-        for (Index i = 0; i < out.size(); ++i)
-            out.data()[i] = u(rng);
-        return out;
-    }
+    using test::random_positions;
 
     SparseRowMat random_sparse(Index rows, Index cols, double density, unsigned seed)
     {

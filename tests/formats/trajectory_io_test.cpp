@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -9,6 +8,7 @@
 #include "formats/hdf5_file.hpp"
 #include "formats/trajectory_io.hpp"
 #include "tests/support/error_checks.hpp"
+#include "tests/support/random_data.hpp"
 #include "tests/support/temp_files.hpp"
 
 namespace mat {
@@ -17,15 +17,7 @@ namespace {
     using Trajectory = test::ScratchDirTest;
     using test::expect_error_containing;
 
-    MatX3 random_positions(Index rows, unsigned seed)
-    {
-        std::mt19937 rng(seed);
-        std::uniform_real_distribution<double> u(-1.0, 1.0);
-        MatX3 out(rows, 3);
-        for (Index i = 0; i < out.size(); ++i)
-            out.data()[i] = u(rng);
-        return out;
-    }
+    using test::random_positions;
 
     /// Two objects, named so that alphabetical order differs from the scene's order.
     std::vector<TrajectoryObject> two_objects()

@@ -106,15 +106,21 @@ namespace {
         }
     }
 
-    TEST(PdSolver, PinnedNodesStayPut)
+    /// A 1 x 0.25 x 0.25 bar of 4 x 2 x 2 cells with the identity basis.
+    BakeData cantilever_bake()
     {
-        // A cantilever: the x = 0 face pinned, gravity along -y. The pin weight is 1e8 times the
-        // largest diagonal entry, so a pinned node lags its target by ~1e-8 of the motion.
         test::GridTetOptions grid;
         grid.nx = 4;
         grid.ny = grid.nz = 2;
         grid.max_corner = Vec3(1.0, 0.25, 0.25);
-        const BakeData bake = test::make_identity_bake(grid);
+        return test::make_identity_bake(grid);
+    }
+
+    TEST(PdSolver, PinnedNodesStayPut)
+    {
+        // A cantilever: the x = 0 face pinned, gravity along -y. The pin weight is 1e8 times the
+        // largest diagonal entry, so a pinned node lags its target by ~1e-8 of the motion.
+        const BakeData bake = cantilever_bake();
         ModelOptions options = model_options();
         options.pinned_nodes = nodes_with_x_below(bake.tet_mesh.positions, 1e-9);
         ASSERT_EQ(options.pinned_nodes.size(), 9u);
@@ -141,11 +147,7 @@ namespace {
     {
         // The pinned face of a cantilever is carried up and sideways along a prescribed path:
         // the pinned nodes track their moving targets, and the rest of the bar follows.
-        test::GridTetOptions grid;
-        grid.nx = 4;
-        grid.ny = grid.nz = 2;
-        grid.max_corner = Vec3(1.0, 0.25, 0.25);
-        const BakeData bake = test::make_identity_bake(grid);
+        const BakeData bake = cantilever_bake();
         ModelOptions options = model_options();
         options.pinned_nodes = nodes_with_x_below(bake.tet_mesh.positions, 1e-9);
         const Model model(bake, Material {}, options);
