@@ -64,6 +64,7 @@ ReducedGlobalStep::ReducedGlobalStep(const Model& model)
     : m_model(model)
     , m_rest_system(model.num_nodes(), 3)
     , m_q(model.num_columns(), 3)
+    , m_q_rows(model.num_columns(), 3)
     , m_cache(model.num_nodes(), model.num_columns())
 {
     // A X = L_w X + M X / h^2 + P X.
@@ -78,25 +79,42 @@ ReducedGlobalStep::ReducedGlobalStep(const Model& model)
 
 // Galerkin projection of A x = b onto x = X + B q (Lan et al. 2020, displacement form):
 //   S q = B^T (b - A X),  S = B^T A B.
+void ReducedGlobalStep::add_constant_terms(Eigen::Ref<MatX3> base) const
+{
+    tbb::parallel_for(tbb::blocked_range<Index>(0, m_model.num_nodes()),
+        [&](const tbb::blocked_range<Index>& range) {
+            for (Index i = range.begin(); i != range.end(); ++i)
+                base.row(i) -= m_rest_system.row(i);
+        });
+}
+
 void ReducedGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
 {
     Timer timer;
-    const Index n = m_model.num_nodes();
     const Index k = m_model.num_columns();
     const SparseRowMatrix& basis_t = m_model.basis_transpose();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-        for (Index i = range.begin(); i != range.end(); ++i)
-            rhs.row(i) -= m_rest_system.row(i);
-    });
     // B^T y, one row of B^T (a basis column) per task: O(nnz(B)), fixed summation order.
-    tbb::parallel_for(tbb::blocked_range<Index>(0, k), [&](const tbb::blocked_range<Index>& range) {
-        for (Index a = range.begin(); a != range.end(); ++a) {
-            Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
-            for (SparseRowMatrix::InnerIterator it(basis_t, a); it; ++it)
-                acc += it.value() * rhs.row(it.index());
-            m_q.row(a) = acc;
-        }
-    });
+    const int* indptr = basis_t.outerIndexPtr();
+    const int* indices = basis_t.innerIndexPtr();
+    const double* values = basis_t.valuePtr();
+    const double* y = rhs.data(); // row-major n x 3 (checked)
+    MAT_CHECK(rhs.outerStride() == 3, "reduced global step: rhs must be contiguous rows");
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, k, 16), [&](const tbb::blocked_range<Index>& range) {
+            for (Index a = range.begin(); a != range.end(); ++a) {
+                double acc0 = 0.0, acc1 = 0.0, acc2 = 0.0;
+                for (int j = indptr[a]; j < indptr[a + 1]; ++j) {
+                    const double w = values[j];
+                    const double* yi = y + 3 * indices[j];
+                    acc0 += w * yi[0];
+                    acc1 += w * yi[1];
+                    acc2 += w * yi[2];
+                }
+                m_q(a, 0) = acc0;
+                m_q(a, 1) = acc1;
+                m_q(a, 2) = acc2;
+            }
+        });
     timings.rhs += timer.seconds();
     timer.restart();
     for (int c = 0; c < 3; ++c) {
@@ -144,15 +162,29 @@ void ReducedGlobalStep::add_forces(
 void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
 {
     Timer timer;
-    const MatX3& rest = m_model.rest_positions();
+    MAT_CHECK(out.outerStride() == 3, "reduced global step: positions must be contiguous rows");
+    m_q_rows = m_q; // row-major copy: a node reads whole rows of q
+    const double* rest = m_model.rest_positions().data();
+    const double* q = m_q_rows.data();
     const SparseRowMatrix& basis = m_model.basis();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, m_model.num_nodes()),
+    const int* indptr = basis.outerIndexPtr();
+    const int* indices = basis.innerIndexPtr();
+    const double* values = basis.valuePtr();
+    double* x = out.data();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, m_model.num_nodes(), 256),
         [&](const tbb::blocked_range<Index>& range) {
             for (Index i = range.begin(); i != range.end(); ++i) {
-                Eigen::RowVector3d acc = rest.row(i);
-                for (SparseRowMatrix::InnerIterator it(basis, i); it; ++it)
-                    acc += it.value() * m_q.row(it.index());
-                out.row(i) = acc;
+                double acc0 = rest[3 * i], acc1 = rest[3 * i + 1], acc2 = rest[3 * i + 2];
+                for (int j = indptr[i]; j < indptr[i + 1]; ++j) {
+                    const double w = values[j];
+                    const double* qa = q + 3 * indices[j];
+                    acc0 += w * qa[0];
+                    acc1 += w * qa[1];
+                    acc2 += w * qa[2];
+                }
+                x[3 * i] = acc0;
+                x[3 * i + 1] = acc1;
+                x[3 * i + 2] = acc2;
             }
         });
     timings.reconstruct += timer.seconds();

@@ -29,8 +29,11 @@ class GlobalStep {
 public:
     virtual ~GlobalStep() = default;
 
-    /// Solves with the full-space right-hand side `rhs`  n x 3 (which may be overwritten) and
-    /// keeps the solution inside (no contact forces).
+    /// Adds this step's iteration-independent terms to the right-hand side `base`  n x 3 (the
+    /// solver fills it once per time step with the inertia and pin terms); nothing by default.
+    virtual void add_constant_terms(Eigen::Ref<MatX3> base) const { }
+    /// Solves with the right-hand side `rhs`  n x 3 (which may be overwritten; it includes the
+    /// constant terms) and keeps the solution inside (no contact forces).
     virtual void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) = 0;
     /// Position of `node` in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
@@ -72,6 +75,8 @@ private:
 class ReducedGlobalStep final : public GlobalStep {
 public:
     explicit ReducedGlobalStep(const Model& model);
+    /// Subtracts A X (the displacement form's shift).
+    void add_constant_terms(Eigen::Ref<MatX3> base) const override;
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
     Vec3 node_position(int node) const override;
     void prepare_nodes(const std::vector<int>& nodes) override;
@@ -85,6 +90,7 @@ private:
     const Model& m_model;
     MatX3 m_rest_system; ///< A X  n x 3 (constant)
     MatX m_q; ///< k x 3
+    MatX3 m_q_rows; ///< k x 3 row-major copy of m_q for the reconstruction
     CouplingCache m_cache; ///< S^-1 b_j^T per prepared node j
 };
 

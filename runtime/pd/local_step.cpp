@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/LU> // Matrix3d::inverse
 #include <Eigen/SVD>
@@ -99,24 +100,85 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
 }
 
 LocalStep::LocalStep(const Model& model)
-    : m_contributions(model.num_tets(), 12)
+    : m_num_tets(model.num_tets())
 {
+    constexpr int lanes = projection_lanes;
+    const Index t = model.num_tets();
+    const Index num_blocks = (t + lanes - 1) / lanes;
+    const MatX4i& tets = model.tets();
+    const MatX& dm_inverse = model.dm_inverse();
+    const VecX& volumes = model.rest_volumes();
+    m_blocks.resize(num_blocks);
+    m_warm.resize(num_blocks);
+    for (Index b = 0; b < num_blocks; ++b) {
+        Block& block = m_blocks[b];
+        const Index first = b * lanes;
+        block.count = static_cast<int>(std::min<Index>(lanes, t - first));
+        for (int l = 0; l < lanes; ++l) {
+            const Index e = first + (l < block.count ? l : 0);
+            for (int c = 0; c < 4; ++c)
+                block.nodes[c][l] = tets(e, c);
+            for (int i = 0; i < 9; ++i)
+                block.dm_inverse[i][l] = dm_inverse(e, i);
+            block.volume[l] = l < block.count ? volumes(e) : 0.0;
+        }
+    }
+
+    // Greedy coloring in block order: a block takes the lowest color none of its nodes has seen.
+    // Colors are bits of a 64-bit mask per node; a block that finds all 64 taken goes to a last
+    // color whose blocks run one after the other.
+    constexpr int max_colors = 64;
+    std::vector<std::uint64_t> seen(model.num_nodes(), 0);
+    std::vector<int> color(num_blocks);
+    int used = 0;
+    for (Index b = 0; b < num_blocks; ++b) {
+        const Block& block = m_blocks[b];
+        std::uint64_t taken = 0;
+        for (int c = 0; c < 4; ++c)
+            for (int l = 0; l < block.count; ++l)
+                taken |= seen[block.nodes[c][l]];
+        int k = 0;
+        while (k < max_colors && (taken >> k) & 1u)
+            ++k;
+        color[b] = k; // k == max_colors: the sequential color
+        if (k < max_colors)
+            for (int c = 0; c < 4; ++c)
+                for (int l = 0; l < block.count; ++l)
+                    seen[block.nodes[c][l]] |= std::uint64_t(1) << k;
+        used = std::max(used, k + 1);
+    }
+    m_color_offsets.assign(used + 1, 0);
+    for (Index b = 0; b < num_blocks; ++b)
+        ++m_color_offsets[color[b] + 1];
+    for (int k = 0; k < used; ++k)
+        m_color_offsets[k + 1] += m_color_offsets[k];
+    // Store the blocks in color order: a color is then a contiguous range streamed from memory
+    // in order (prefetch-friendly), not blocks scattered across the array.
+    std::vector<int> fill(m_color_offsets.begin(), m_color_offsets.end() - 1);
+    std::vector<Block> ordered(num_blocks);
+    for (Index b = 0; b < num_blocks; ++b)
+        ordered[fill[color[b]]++] = m_blocks[b];
+    m_blocks.swap(ordered);
 }
 
 void LocalStep::compute(
     const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs)
 {
+    rhs.setZero();
+    accumulate(model, positions, rhs);
+}
+
+void LocalStep::accumulate(
+    const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs)
+{
     const Index n = model.num_nodes();
-    const Index t = model.num_tets();
     MAT_CHECK(positions.rows() == n && rhs.rows() == n,
-        "local step: {} positions / {} rhs rows "
-        "for a model of {} nodes",
-        positions.rows(), rhs.rows(), n);
-    MAT_CHECK(m_contributions.rows() == t, "local step: workspace made for {} tets, model has {}",
-        m_contributions.rows(), t);
-    const MatX4i& tets = model.tets();
-    const MatX& dm_inverse = model.dm_inverse();
-    const VecX& volumes = model.rest_volumes();
+        "local step: {} positions / {} rhs rows for a model of {} nodes", positions.rows(),
+        rhs.rows(), n);
+    MAT_CHECK(m_num_tets == model.num_tets(), "local step: made for {} tets, model has {}",
+        m_num_tets, model.num_tets());
+    MAT_CHECK(positions.outerStride() == 3 && rhs.outerStride() == 3,
+        "local step: positions and rhs must be contiguous rows");
     ProjectionParams params;
     params.volume_tolerance = model.volume_tolerance();
     params.limit_min = model.material().strain_limit_min;
@@ -125,79 +187,71 @@ void LocalStep::compute(
     params.volume_weight = model.volume_weight();
     params.limit_weight = model.strain_limit_weight();
     constexpr int lanes = projection_lanes;
-    const Index num_blocks = (t + lanes - 1) / lanes;
-    const double* x = positions.data(); // row-major n x 3, rows contiguous (checked below)
-    MAT_CHECK(positions.outerStride() == 3, "local step: positions must be contiguous rows");
+    const double* x = positions.data(); // row-major n x 3
+    double* out = rhs.data();
 
-    // Blocks of `lanes` consecutive tets (Morton-ordered by the bake): gather F, project, scatter
-    // the 12 numbers per tet. A block's result does not depend on how TBB splits the range.
-    tbb::parallel_for(
-        tbb::blocked_range<Index>(0, num_blocks), [&](const tbb::blocked_range<Index>& range) {
-            MatBlock f, target;
-            for (Index block = range.begin(); block != range.end(); ++block) {
-                const Index first = block * lanes;
-                const int count = static_cast<int>(std::min<Index>(lanes, t - first));
-                // F = Ds Dm^-1 per lane; padding lanes get the identity.
-                for (int l = 0; l < lanes; ++l) {
-                    if (l >= count) {
-                        for (int i = 0; i < 9; ++i)
-                            f.m[i][l] = (i % 4 == 0) ? 1.0 : 0.0;
-                        continue;
-                    }
-                    const Index e = first + l;
-                    const double* x0 = x + 3 * tets(e, 0);
-                    double ds[3][3]; // ds[r][c] = x_{c+1}(r) - x_0(r)
-                    for (int c = 0; c < 3; ++c) {
-                        const double* xc = x + 3 * tets(e, c + 1);
-                        for (int r = 0; r < 3; ++r)
-                            ds[r][c] = xc[r] - x0[r];
-                    }
-                    const double* dm = &dm_inverse(e, 0);
-                    const Index stride = dm_inverse.rows(); // column-major T x 9
-                    for (int r = 0; r < 3; ++r)
-                        for (int c = 0; c < 3; ++c)
-                            f.m[3 * r + c][l] = ds[r][0] * dm[(3 * 0 + c) * stride]
-                                + ds[r][1] * dm[(3 * 1 + c) * stride]
-                                + ds[r][2] * dm[(3 * 2 + c) * stride];
-                }
-                project_block(f, params, target);
-                // vol_e G_e^T target^T with G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3):
-                // row c + 1 of the 4 x 3 contribution is vol_e (Dm^-1 target^T) row c.
-                for (int l = 0; l < count; ++l) {
-                    const Index e = first + l;
-                    const double* dm = &dm_inverse(e, 0);
-                    const Index stride = dm_inverse.rows();
-                    const double vol = volumes(e);
-                    double* out = m_contributions.row(e).data();
-                    double sum[3] = { 0.0, 0.0, 0.0 };
-                    for (int r = 0; r < 3; ++r)
-                        for (int c = 0; c < 3; ++c) {
-                            // (Dm^-1 target^T)(r, c) = sum_j Dm^-1(r, j) target(c, j)
-                            const double q = vol
-                                * (dm[(3 * r + 0) * stride] * target.m[3 * c + 0][l]
-                                    + dm[(3 * r + 1) * stride] * target.m[3 * c + 1][l]
-                                    + dm[(3 * r + 2) * stride] * target.m[3 * c + 2][l]);
-                            out[3 * (r + 1) + c] = q;
-                            sum[c] += q;
-                        }
-                    for (int c = 0; c < 3; ++c)
-                        out[c] = -sum[c];
+    // One block: gather F = Ds Dm^-1, project, scatter vol_e G_e^T target^T into rhs. With
+    // G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3), corner c + 1 gets row c of
+    // vol_e Dm^-1 target^T and corner 0 minus their sum.
+    const auto run_block = [&](int b, MatBlock& f, MatBlock& target) {
+        const Block& block = m_blocks[b];
+        // Gathered corner positions (scalar loads), then F in SIMD over lanes.
+        alignas(64) double p[4][3][lanes];
+        for (int l = 0; l < lanes; ++l)
+#pragma GCC unroll 4
+            for (int c = 0; c < 4; ++c) {
+                const double* xc = x + 3 * block.nodes[c][l];
+                p[c][0][l] = xc[0];
+                p[c][1][l] = xc[1];
+                p[c][2][l] = xc[2];
+            }
+        for (int l = 0; l < lanes; ++l)
+#pragma GCC unroll 3
+            for (int r = 0; r < 3; ++r) {
+                const double x0 = p[0][r][l];
+                const double d0 = p[1][r][l] - x0, d1 = p[2][r][l] - x0, d2 = p[3][r][l] - x0;
+#pragma GCC unroll 3
+                for (int c = 0; c < 3; ++c)
+                    f.m[3 * r + c][l] = d0 * block.dm_inverse[c][l]
+                        + d1 * block.dm_inverse[3 + c][l] + d2 * block.dm_inverse[6 + c][l];
+            }
+        project_block(f, params, target, m_warm[b]);
+        // q(r, c) = vol (Dm^-1 target^T)(r, c) = vol sum_j Dm^-1(r, j) target(c, j), into f.
+        for (int l = 0; l < lanes; ++l)
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c)
+                    f.m[3 * r + c][l] = block.volume[l]
+                        * (block.dm_inverse[3 * r][l] * target.m[3 * c][l]
+                            + block.dm_inverse[3 * r + 1][l] * target.m[3 * c + 1][l]
+                            + block.dm_inverse[3 * r + 2][l] * target.m[3 * c + 2][l]);
+        for (int l = 0; l < block.count; ++l) {
+            double* o0 = out + 3 * block.nodes[0][l];
+            for (int r = 0; r < 3; ++r) {
+                double* o = out + 3 * block.nodes[r + 1][l];
+                for (int c = 0; c < 3; ++c) {
+                    o[c] += f.m[3 * r + c][l];
+                    o0[c] -= f.m[3 * r + c][l];
                 }
             }
-        });
-
-    const VecXi& indptr = model.incident_indptr();
-    const VecXi& corners = model.incident_corners();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-        for (Index i = range.begin(); i != range.end(); ++i) {
-            Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
-            for (int j = indptr(i); j < indptr(i + 1); ++j) {
-                const int e = corners(j) / 4, c = corners(j) % 4;
-                acc += m_contributions.block<1, 3>(e, 3 * c);
-            }
-            rhs.row(i) = acc;
         }
-    });
+    };
+
+    const int num_colors = static_cast<int>(m_color_offsets.size()) - 1;
+    for (int k = 0; k < num_colors; ++k) {
+        const int begin = m_color_offsets[k], end = m_color_offsets[k + 1];
+        if (k == 64) { // the sequential color (see the constructor)
+            MatBlock f, target;
+            for (int b = begin; b < end; ++b)
+                run_block(b, f, target);
+            continue;
+        }
+        tbb::parallel_for(
+            tbb::blocked_range<int>(begin, end, 32), [&](const tbb::blocked_range<int>& range) {
+                MatBlock f, target;
+                for (int b = range.begin(); b != range.end(); ++b)
+                    run_block(b, f, target);
+            });
+    }
 }
 
 } // namespace mat

@@ -7,9 +7,11 @@
 // project_tet is the exact scalar reference it is tested against.
 
 #include <limits>
+#include <vector>
 
 #include "common/eigen_types.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/projection_kernel.hpp"
 
 namespace mat {
 
@@ -34,20 +36,42 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     double strain_limit_max = std::numeric_limits<double>::infinity());
 
 /// Preallocated storage for the local step of one model: a step allocates nothing.
+///
+/// Layout: tets in blocks of projection_lanes consecutive (Morton-ordered) tets, each block with
+/// its node indices, Dm^-1 and rest volumes in structure-of-arrays form. The blocks are colored
+/// so that two blocks of one color share no node: the blocks of a color run in parallel and add
+/// their contributions straight into the right-hand side, the colors one after the other. The
+/// order of the additions into a node is fixed by the coloring, so the result does not depend on
+/// the thread count.
 class LocalStep {
 public:
     explicit LocalStep(const Model& model);
 
-    /// Computes rhs = sum_e vol_e G_e^T (2 mu R_e + lambda V_e + w_limit L_e)^T  n x 3 at
+    /// rhs = sum_e vol_e G_e^T (2 mu R_e + lambda V_e + w_limit L_e)^T  n x 3 at
     /// `positions`  n x 3 (the weighted constraint projections, Bouaziz et al. 2014 eq. 13
-    /// right-hand side). Parallel over fixed blocks of consecutive tets, then a per-node gather
-    /// in a fixed order: the result does not depend on the thread count. `rhs` must be n x 3.
+    /// right-hand side). `rhs` must be n x 3. Each tet's last right singular vectors are kept as
+    /// the next call's warm start.
     void compute(
         const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
+    /// The same sum added to `rhs` (n x 3) instead of replacing it.
+    void accumulate(
+        const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
+
+    /// Number of block colors (for the benchmark's report).
+    int num_colors() const { return static_cast<int>(m_color_offsets.size()) - 1; }
 
 private:
-    /// T x 12: per tet, the 4 x 3 contribution (one row of 3 per corner).
-    Eigen::Matrix<double, Eigen::Dynamic, 12, Eigen::RowMajor> m_contributions;
+    struct alignas(64) Block {
+        double dm_inverse[9][projection_lanes]; ///< Dm^-1 (r, c) at [3 r + c]
+        double volume[projection_lanes]; ///< rest volume, 0 on padding lanes
+        int nodes[4][projection_lanes]; ///< corner nodes; padding lanes repeat lane 0
+        int count = 0; ///< real tets in the block
+    };
+    Index m_num_tets = 0;
+    std::vector<Block> m_blocks; ///< in color order
+    std::vector<int> m_color_offsets; ///< #colors + 1: color k is blocks [off_k, off_k+1)
+    /// Per block: V of the last projection (the warm start).
+    std::vector<RotationBlock> m_warm;
 };
 
 } // namespace mat

@@ -1,17 +1,23 @@
 #pragma once
 // The local step's projections, vectorized across tets: blocks of `projection_lanes`
-// deformation gradients in structure-of-arrays form, branch-free (selects, fixed iteration
-// counts), written as plain loops over lanes that the compiler turns into SIMD code.
+// deformation gradients in structure-of-arrays form, branch-free within a block (selects; the
+// iteration counts are per block), written as plain loops over lanes that the compiler turns into
+// SIMD code.
 //
 // Per lane, F = U S V^T with U, V rotations and S signed (an inverted F has its smallest singular
 // value negative), computed as in McAdams et al. 2011 ("Computing the SVD of 3x3 matrices with
 // minimal branching and elementary floating point operations"):
 //   1. Jacobi eigen-decomposition of F^T F in float with approximate Givens rotations, V kept as
-//      a quaternion (4 sweeps);
-//   2. in double: V from the normalized quaternion (orthogonal to double precision), two more
-//      Jacobi sweeps on V^T F^T F V in double (each roughly squares the float stage's error),
-//      columns sorted by singular value with conditional swaps that keep det V = +1, and a
-//      Givens QR of F V -> U (a rotation) and the signed singular values.
+//      a quaternion, started from a warm start V0 (the last projection's V in a PD solve, or the
+//      identity): sweeps on V0^T F^T F V0 until every lane of the block is diagonal to 1e-5
+//      (1 to 4 sweeps; one usually suffices from a warm start);
+//   2. in double: V from the normalized quaternion (orthogonal to double precision), one or two
+//      more Jacobi sweeps on V^T F^T F V in double (each roughly squares the float stage's
+//      error; the second only if some lane is not diagonal to 1e-13 after the first), columns
+//      sorted by singular value with conditional swaps that keep det V = +1, and a Givens QR of
+//      F V -> U (a rotation) and the signed singular values.
+// Each stage is a sequence of loops over the lanes, so that the dependent chains of separate
+// lanes overlap in the pipeline (one loop per Jacobi rotation rather than one per lane).
 // Then the projections, all of the form U diag(.) V^T:
 //   rotation  R = U V^T (Bouaziz et al. 2014, eq. 19; nearest rotation, det +1);
 //   volume    U D V^T, D nearest to S with prod D = clamp(det F, 1 - eps, 1 + eps) (section 5.2);
@@ -34,6 +40,20 @@ struct alignas(64) MatBlock {
     double m[9][projection_lanes];
 };
 
+/// A block of rotations V as unit quaternions (w, x, y, z) in float: the warm start of the
+/// Jacobi stage, the right singular vectors of the last projection. Starts as the identity.
+struct alignas(64) RotationBlock {
+    float q[4][projection_lanes];
+
+    RotationBlock()
+    {
+        for (int l = 0; l < projection_lanes; ++l) {
+            q[0][l] = 1.0f;
+            q[1][l] = q[2][l] = q[3][l] = 0.0f;
+        }
+    }
+};
+
 /// Projection settings and the weights of the three projections in the returned sum.
 struct ProjectionParams {
     double volume_tolerance = 0.0; ///< eps: det is kept in [1 - eps, 1 + eps], in [0, 1)
@@ -46,8 +66,16 @@ struct ProjectionParams {
 
 /// target_lane = w_r R(F) + w_v P_vol(F) + w_l P_lim(F) for every lane of `f` (see the file
 /// comment). Finite for every finite F, also flat, collapsed or inverted ones. The volume and
-/// limit projections are skipped for a block none of whose lanes needs them (a branch per
-/// block, never per lane: the result of a lane does not depend on its neighbours).
+/// limit projections are skipped for a block none of whose lanes needs them, and the sweep and
+/// Newton counts adapt per block (branches per block, never per lane: a lane's result depends
+/// on its neighbours only through how many converging iterations it gets).
 void project_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target);
+
+/// The same, with the Jacobi stage started from `warm` (read, then overwritten with this call's
+/// V): in a PD solve, F changes little between iterations and steps, and V not at all under
+/// rigid motion, so one sweep usually converges. The sweep counts adapt per block (more sweeps
+/// while some lane has not converged), so the accuracy does not depend on the warm start.
+void project_block(
+    const MatBlock& f, const ProjectionParams& params, MatBlock& target, RotationBlock& warm);
 
 } // namespace mat

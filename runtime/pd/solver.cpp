@@ -41,6 +41,7 @@ PdSolver::PdSolver(
     , m_pin_targets(model.pin_targets())
     , m_inertia(model.num_nodes(), 3)
     , m_rhs(model.num_nodes(), 3)
+    , m_rhs_base(model.num_nodes(), 3)
 {
     check_options(options);
     m_fill_column = [this](Index b) {
@@ -141,6 +142,15 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
             m_inertia.row(i) = in.positions.row(i) + h * in.velocities.row(i) + shift;
     });
     out.positions = m_inertia;
+    // b = M s / h^2 + P p + r  (Bouaziz et al. 2014, eq. 13 with pins): all but the local step's
+    // r are the same in every iteration of the step.
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            m_rhs_base.row(i) = (masses(i) * inv_h2) * m_inertia.row(i);
+    });
+    for (std::size_t p = 0; p < pins.size(); ++p)
+        m_rhs_base.row(pins[p]) += model.pin_weight() * m_pin_targets.row(static_cast<Index>(p));
+    m_global->add_constant_terms(m_rhs_base);
     m_timings.rhs += timer.seconds();
 
     timer.restart();
@@ -151,19 +161,9 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
 
     for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
         timer.restart();
-        m_local.compute(model, out.positions, m_rhs);
+        m_rhs = m_rhs_base;
+        m_local.accumulate(model, out.positions, m_rhs);
         m_timings.local += timer.seconds();
-
-        // b = M s / h^2 + r + P p  (Bouaziz et al. 2014, eq. 13 with pins).
-        timer.restart();
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-                for (Index i = range.begin(); i != range.end(); ++i)
-                    m_rhs.row(i) += (masses(i) * inv_h2) * m_inertia.row(i);
-            });
-        for (std::size_t p = 0; p < pins.size(); ++p)
-            m_rhs.row(pins[p]) += model.pin_weight() * m_pin_targets.row(static_cast<Index>(p));
-        m_timings.rhs += timer.seconds();
 
         m_global->solve(m_rhs, m_timings);
 

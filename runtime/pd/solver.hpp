@@ -82,6 +82,7 @@ private:
     MatX3 m_pin_targets; ///< #pinned x 3
     MatX3 m_inertia; ///< s  n x 3
     MatX3 m_rhs; ///< n x 3
+    MatX3 m_rhs_base; ///< n x 3, the terms of the right-hand side that stay fixed in a step
     SolverTimings m_timings;
     StepReport m_report;
     // Contact workspace.
