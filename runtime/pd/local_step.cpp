@@ -14,6 +14,11 @@
 
 namespace mat {
 
+namespace {
+    /// Block colors fit one 64-bit mask per node.
+    constexpr int max_block_colors = 64;
+} // namespace
+
 Mat3 deformation_gradient(const Eigen::Ref<const MatX3>& positions,
     const Eigen::Ref<const MatX4i>& tets, const MatX& dm_inverse, Index tet)
 {
@@ -127,7 +132,6 @@ LocalStep::LocalStep(const Model& model)
     // Greedy coloring in block order: a block takes the lowest color none of its nodes has seen.
     // Colors are bits of a 64-bit mask per node; a block that finds all 64 taken goes to a last
     // color whose blocks run one after the other.
-    constexpr int max_colors = 64;
     std::vector<std::uint64_t> seen(model.num_nodes(), 0);
     std::vector<int> color(num_blocks);
     int used = 0;
@@ -138,10 +142,10 @@ LocalStep::LocalStep(const Model& model)
             for (int l = 0; l < block.count; ++l)
                 taken |= seen[block.nodes[c][l]];
         int k = 0;
-        while (k < max_colors && (taken >> k) & 1u)
+        while (k < max_block_colors && (taken >> k) & 1u)
             ++k;
-        color[b] = k; // k == max_colors: the sequential color
-        if (k < max_colors)
+        color[b] = k; // k == max_block_colors: the sequential color
+        if (k < max_block_colors)
             for (int c = 0; c < 4; ++c)
                 for (int l = 0; l < block.count; ++l)
                     seen[block.nodes[c][l]] |= std::uint64_t(1) << k;
@@ -239,7 +243,7 @@ void LocalStep::accumulate(
     const int num_colors = static_cast<int>(m_color_offsets.size()) - 1;
     for (int k = 0; k < num_colors; ++k) {
         const int begin = m_color_offsets[k], end = m_color_offsets[k + 1];
-        if (k == 64) { // the sequential color (see the constructor)
+        if (k == max_block_colors) { // the sequential color (see the constructor)
             MatBlock f, target;
             for (int b = begin; b < end; ++b)
                 run_block(b, f, target);
