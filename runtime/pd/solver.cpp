@@ -48,15 +48,15 @@ PdSolver::PdSolver(
         for (Index a = 0; a < static_cast<Index>(m_pairs.size()); ++a)
             m_coupling(a, b) = m_global->coupling(m_pairs[a].node, m_pairs[b].node);
     };
-    if (!options.planes.empty()) {
+    const MatX3& rest = model.rest_positions();
+    const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+    m_margin = options.contact_margin * diagonal;
+    m_options.contact.tolerance = options.contact.tolerance * diagonal;
+    m_previous_forces
+        = MatX3::Zero(model.num_nodes() * static_cast<Index>(options.planes.size()), 3);
+    m_previous_node_forces = MatX3::Zero(model.num_nodes(), 3);
+    if (!options.planes.empty())
         m_boundary = boundary_nodes(model.tets(), model.num_nodes());
-        const MatX3& rest = model.rest_positions();
-        const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
-        m_margin = options.contact_margin * diagonal;
-        m_options.contact.tolerance = options.contact.tolerance * diagonal;
-        m_previous_forces
-            = MatX3::Zero(model.num_nodes() * static_cast<Index>(options.planes.size()), 3);
-    }
 }
 
 void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
@@ -69,13 +69,25 @@ void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
     m_pin_targets = targets;
 }
 
+void PdSolver::set_node_contacts(std::vector<NodeContact> contacts)
+{
+    const Index n = m_model->num_nodes();
+    for (const NodeContact& c : contacts) {
+        if (c.node < 0 || c.node >= n)
+            throw_error("solver: contact node {} out of range [0, {})", c.node, n);
+        if (!c.plane.point.allFinite() || std::abs(c.plane.normal.norm() - 1.0) > 1e-9
+            || !(c.plane.friction >= 0.0))
+            throw_error("solver: contact at node {} has a bad plane", c.node);
+    }
+    m_node_contacts = std::move(contacts);
+}
+
 // Candidates: boundary nodes within the margin of a plane at the start of the step or at the
 // inertia target (the iterates move from s towards an equilibrium near both).
 void PdSolver::find_contacts(const State& in)
 {
     const Index num_planes = static_cast<Index>(m_options.planes.size());
-    for (Index a = 0; a < static_cast<Index>(m_pairs.size()); ++a)
-        m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane).setZero();
+    m_old_pairs.swap(m_pairs);
     m_pairs.clear();
     m_pair_nodes.clear();
     m_unique_nodes.clear();
@@ -94,6 +106,19 @@ void PdSolver::find_contacts(const State& in)
         if (any)
             m_unique_nodes.push_back(i);
     }
+    // Node contacts, each with a plane of its own after the ground planes. Warm start: the
+    // node's node-contact force of the last step.
+    m_step_planes.assign(m_options.planes.begin(), m_options.planes.end());
+    const Index ground_pairs = static_cast<Index>(m_pairs.size());
+    for (const NodeContact& c : m_node_contacts) {
+        m_pairs.push_back(ContactPair { c.node, static_cast<int>(m_step_planes.size()) });
+        m_step_planes.push_back(c.plane);
+        m_pair_nodes.push_back(c.node);
+        m_unique_nodes.push_back(c.node);
+    }
+    std::sort(m_unique_nodes.begin(), m_unique_nodes.end());
+    m_unique_nodes.erase(
+        std::unique(m_unique_nodes.begin(), m_unique_nodes.end()), m_unique_nodes.end());
     const Index m = static_cast<Index>(m_pairs.size());
     m_global->prepare_nodes(m_unique_nodes);
     if (m_coupling.rows() != m || m_contact_free.rows() != m) {
@@ -109,8 +134,17 @@ void PdSolver::find_contacts(const State& in)
         m_coupling(a, a) = m_global->coupling(m_pairs[a].node, m_pairs[a].node);
     for (Index a = 0; a < m; ++a) {
         m_contact_start.row(a) = in.positions.row(m_pairs[a].node);
-        m_contact_forces.row(a)
-            = m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane);
+        m_contact_forces.row(a) = a < ground_pairs
+            ? m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane)
+            : m_previous_node_forces.row(m_pairs[a].node);
+    }
+    // The last step's forces are read: forget them, so that a pair that drops out and comes
+    // back later does not start from a stale force (the step's end writes the current ones).
+    for (const ContactPair& pair : m_old_pairs) {
+        if (pair.plane < num_planes)
+            m_previous_forces.row(pair.node * num_planes + pair.plane).setZero();
+        else
+            m_previous_node_forces.row(pair.node).setZero();
     }
 }
 
@@ -154,8 +188,9 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
     m_timings.rhs += timer.seconds();
 
     timer.restart();
-    if (!m_options.planes.empty())
+    if (!m_options.planes.empty() || !m_node_contacts.empty() || !m_pairs.empty())
         find_contacts(in);
+    m_node_contacts.clear(); // they hold for this step only
     m_timings.contact += timer.seconds();
     const Index m = static_cast<Index>(m_pairs.size());
 
@@ -172,7 +207,7 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
             for (Index a = 0; a < m; ++a)
                 m_contact_free.row(a) = m_global->node_position(m_pairs[a].node).transpose();
             const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready,
-                m_fill_column, m_options.planes, m_pairs, m_contact_free, m_contact_start,
+                m_fill_column, m_step_planes, m_pairs, m_contact_free, m_contact_start,
                 m_contact_forces, m_contact_positions, m_options.contact);
             m_report.contact_sweeps += result.sweeps;
             m_global->add_forces(m_pair_nodes, m_contact_forces);
@@ -185,13 +220,15 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
     m_report.contacts = static_cast<int>(m);
     const Index num_planes = static_cast<Index>(m_options.planes.size());
     for (Index a = 0; a < m; ++a) {
-        m_previous_forces.row(m_pairs[a].node * num_planes + m_pairs[a].plane)
-            = m_contact_forces.row(a);
+        const ContactPair& pair = m_pairs[a];
+        if (pair.plane < num_planes)
+            m_previous_forces.row(pair.node * num_planes + pair.plane) = m_contact_forces.row(a);
+        else
+            m_previous_node_forces.row(pair.node) = m_contact_forces.row(a);
         if (m_contact_forces.row(a).squaredNorm() > 0.0)
             ++m_report.active_contacts;
-        const PlaneCollider& plane = m_options.planes[m_pairs[a].plane];
-        const double gap
-            = plane.normal.dot(out.positions.row(m_pairs[a].node).transpose() - plane.point);
+        const PlaneCollider& plane = m_step_planes[pair.plane];
+        const double gap = plane.normal.dot(out.positions.row(pair.node).transpose() - plane.point);
         m_report.max_penetration = std::max(m_report.max_penetration, -gap);
     }
 

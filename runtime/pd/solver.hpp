@@ -64,6 +64,11 @@ public:
     void set_pin_targets(const Eigen::Ref<const MatX3>& targets);
     const MatX3& pin_targets() const { return m_pin_targets; }
 
+    /// Contacts for the next step only, besides the ground planes (the collision pipeline's
+    /// output: a node against the separating plane of a contact). Solved with the ground
+    /// contacts by the same exact Signorini-Coulomb solve in every iteration.
+    void set_node_contacts(std::vector<NodeContact> contacts);
+
     const SolverOptions& options() const { return m_options; }
     const SolverTimings& timings() const { return m_timings; }
     const StepReport& last_report() const { return m_report; }
@@ -86,9 +91,12 @@ private:
     SolverTimings m_timings;
     StepReport m_report;
     // Contact workspace.
-    std::vector<int> m_boundary; ///< boundary nodes, the contact candidates
+    std::vector<int> m_boundary; ///< boundary nodes, the ground contact candidates
+    std::vector<NodeContact> m_node_contacts; ///< for the next step
+    std::vector<PlaneCollider> m_step_planes; ///< ground planes, then one per node contact
     double m_margin = 0.0; ///< absolute candidate distance (m)
     std::vector<ContactPair> m_pairs;
+    std::vector<ContactPair> m_old_pairs; ///< the last step's
     std::vector<int> m_pair_nodes; ///< node of each pair (repeats allowed)
     std::vector<int> m_unique_nodes;
     MatX m_coupling; ///< m x m, columns filled on demand
@@ -98,6 +106,8 @@ private:
     /// The last step's force of each (node, plane) pair, row node * #planes + plane: the warm
     /// start of the next step's contact solve.
     MatX3 m_previous_forces;
+    /// The last step's node-contact force at each node  n x 3 (warm start).
+    MatX3 m_previous_node_forces;
 };
 
 class SemiReducedSolver final : public PdSolver {

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/error.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/contact.hpp"
 #include "runtime/pd/solver.hpp"
@@ -185,6 +186,41 @@ namespace {
             EXPECT_LT(std::abs(centre_shift(cube.model, end.positions, 0)), 1e-4);
             EXPECT_LT(std::abs(centre_shift(cube.model, end.positions, 2)), 1e-4);
         }
+    }
+
+    TEST(PlaneContact, NodeContactsActLikeTheGround)
+    {
+        // The same ground given as one node contact per boundary node, set before every step
+        // (as the collision pipeline does), gives the same fall and rest as the ground plane.
+        const Cube cube;
+        const PlaneCollider ground { Vec3(0.0, -0.05, 0.0), Vec3::UnitY(), 0.5 };
+        SolverOptions with_plane;
+        with_plane.planes = { ground };
+        SemiReducedSolver plane_solver(cube.model, with_plane);
+        SemiReducedSolver node_solver(cube.model, SolverOptions {});
+        const std::vector<int> boundary = boundary_nodes(cube.model.tets(), cube.model.num_nodes());
+        State a = State::at_rest(cube.model), b = a, next;
+        double deepest = 0.0;
+        for (int s = 0; s < 60; ++s) {
+            plane_solver.step(cube.model, a, next, dt);
+            std::swap(a, next);
+            std::vector<NodeContact> contacts;
+            for (const int node : boundary)
+                contacts.push_back(NodeContact { node, ground });
+            node_solver.set_node_contacts(contacts);
+            node_solver.step(cube.model, b, next, dt);
+            std::swap(b, next);
+            deepest = std::max(deepest, node_solver.last_report().max_penetration);
+        }
+        EXPECT_LT((a.positions - b.positions).cwiseAbs().maxCoeff(), 1e-6);
+        EXPECT_NEAR(b.positions.col(1).minCoeff(), -0.05, 1e-6);
+        EXPECT_LT(deepest, 1e-6);
+        EXPECT_GT(node_solver.last_report().active_contacts, 0);
+        // Node contacts hold for one step: without new ones the cube falls through.
+        node_solver.step(cube.model, b, next, dt);
+        EXPECT_EQ(node_solver.last_report().contacts, 0);
+        const std::vector<NodeContact> bad { NodeContact { -1, ground } };
+        EXPECT_THROW(node_solver.set_node_contacts(bad), Error);
     }
 
     TEST(PlaneContact, SlidingCubeDeceleratesByCoulombFriction)
