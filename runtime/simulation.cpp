@@ -73,7 +73,18 @@ SolverKind parse_solver_kind(const std::string& name)
 
 Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
     : m_scene(scene)
+    , m_solver_kind(solver_kind)
 {
+    const bool self = scene.solver.self_collision == "on";
+    if (scene.solver.collision != "off" && (scene.objects.size() > 1 || self)) {
+        CollisionSettings settings;
+        settings.self = self;
+        settings.bounds
+            = scene.solver.collision == "lazy" ? RadiusUpdate::lazy : RadiusUpdate::bound;
+        settings.margin = scene.solver.collision_margin;
+        settings.friction = scene.solver.collision_friction;
+        m_collision = std::make_unique<CollisionWorld>(settings);
+    }
     m_bodies.reserve(scene.objects.size());
     for (std::size_t o = 0; o < scene.objects.size(); ++o) {
         const ObjectSettings& object = scene.objects[o];
@@ -117,6 +128,9 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
 
         body.model = std::make_unique<Model>(bake, material_of(object.material), options);
         body.surface = std::make_unique<SurfaceView>(bake);
+        body.is_static = object.motion == "static";
+        if (m_collision)
+            m_collision->add_body(bake);
         body.num_handles = bake.num_handles();
 
         SolverOptions solver_options;
@@ -148,6 +162,8 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         for (const PinGroup& group : body.pins)
             for (const int i : group.nodes)
                 body.state.velocities.row(i).setZero();
+        if (body.is_static)
+            body.state.velocities.setZero();
         body.pin_targets = options.pin_targets;
         update_pin_targets(body, 0.0);
         logger().info("{}: {} nodes, {} tets, {} handles, {} columns, {} pinned nodes", body.name,
@@ -180,7 +196,25 @@ void Simulation::step()
 {
     const double dt = m_scene.time.dt;
     const double next_time = (m_steps + 1) * dt;
+    if (m_collision) {
+        // Before the first step q does not hold the placement yet: bounds from positions.
+        std::vector<CollisionBodyState> states(m_bodies.size());
+        for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+            const Body& body = m_bodies[b];
+            states[b].nodes = &body.state.positions;
+            states[b].is_static = body.is_static;
+            const auto* semi = dynamic_cast<const SemiReducedSolver*>(body.solver.get());
+            if (semi != nullptr && m_steps > 0 && !body.is_static)
+                states[b].q = &semi->reduced_coordinates();
+        }
+        const auto& contacts = m_collision->detect(states);
+        for (std::size_t b = 0; b < m_bodies.size(); ++b)
+            if (!m_bodies[b].is_static)
+                m_bodies[b].solver->set_node_contacts(contacts[b]);
+    }
     for (Body& body : m_bodies) {
+        if (body.is_static)
+            continue;
         update_pin_targets(body, next_time);
         body.solver->step(*body.model, body.state, body.next, dt);
         std::swap(body.state, body.next);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "runtime/collision/collision_world.hpp"
 #include "runtime/model.hpp"
 #include "runtime/output/surface_view.hpp"
 #include "runtime/pd/solver.hpp"
@@ -47,6 +48,7 @@ struct Body {
     std::vector<PinGroup> pins;
     MatX3 pin_targets; ///< #pinned x 3, workspace
     Index num_handles = 0;
+    bool is_static = false; ///< not stepped: a mesh collider for the others
 };
 
 class Simulation {
@@ -64,12 +66,16 @@ public:
     const Scene& scene() const { return m_scene; }
     std::vector<Body>& bodies() { return m_bodies; }
     const std::vector<Body>& bodies() const { return m_bodies; }
+    /// The collision pipeline, or null when the scene turns collision off.
+    const CollisionWorld* collision() const { return m_collision.get(); }
 
 private:
     void update_pin_targets(Body& body, double time);
 
     const Scene& m_scene;
     std::vector<Body> m_bodies;
+    std::unique_ptr<CollisionWorld> m_collision;
+    SolverKind m_solver_kind = SolverKind::semi_reduced;
     long m_steps = 0;
 };
 

@@ -32,6 +32,10 @@ struct SolverSettings {
     double damping = 0.0; ///< per-step velocity scaling in [0, 1)
     double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
+    std::string collision; ///< "bounded", "lazy" or "off"
+    std::string self_collision; ///< "on" or "off"
+    double collision_margin = 0.0; ///< relative to the largest bake's diagonal
+    double collision_friction = 0.0; ///< Coulomb coefficient between objects
 };
 
 struct MaterialSettings {
@@ -72,6 +76,7 @@ struct PinRegion {
 
 struct ObjectSettings {
     std::string name; ///< unique among the objects
+    std::string motion; ///< "dynamic" or "static"
     std::string bake; ///< absolute, normalized path of the bake file
     Vec3 position = Vec3::Zero(); ///< translation applied after the rotation, m
     /// XYZ Euler angles, degrees: rotate about x, then y, then z, about the bake's origin

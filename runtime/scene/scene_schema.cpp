@@ -144,12 +144,39 @@ namespace {
                 .at_least(0)
                 .set_doc("nodes this close to a plane (fraction of the bake's bounding-box "
                          "diagonal) are contact candidates for a step"),
+            value_key(S::solver, "collision", T::string, &SolverSettings::collision)
+                .set_default("off")
+                .set_choices({ "bounded", "lazy", "off" })
+                .set_doc("collision between objects (work in progress, off by default: its "
+                         "narrow phase is still slow): medial primitives enlarged by the "
+                         "conservative bound, moved only (lazy, misses under large deformation), "
+                         "or none"),
+            value_key(S::solver, "self_collision", T::string, &SolverSettings::self_collision)
+                .set_default("off")
+                .set_choices({ "on", "off" })
+                .set_doc("collision between non-adjacent medial primitives of one object (with "
+                         "collision on)"),
+            value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
+                .set_default(0.01)
+                .at_least(0)
+                .set_doc("contact candidate distance between objects, fraction of the largest "
+                         "bake's bounding-box diagonal"),
+            value_key(
+                S::solver, "collision_friction", T::number, &SolverSettings::collision_friction)
+                .set_default(0.3)
+                .at_least(0)
+                .set_doc("Coulomb friction coefficient between objects"),
 
             // objects[]
             value_key(S::object, "name", T::string, &ObjectSettings::name)
                 .set_default_doc("object0, object1, ...")
                 .set_check(check_not_empty)
                 .set_doc("unique name; by default \"object\" and the index in objects"),
+            value_key(S::object, "motion", T::string, &ObjectSettings::motion)
+                .set_default("dynamic")
+                .set_choices({ "dynamic", "static" })
+                .set_doc("dynamic: simulated; static: stays at its placement and serves as a mesh "
+                         "collider for the others"),
             value_key(S::object, "bake", T::path, &ObjectSettings::bake)
                 .set_required()
                 .set_doc("the bake file (mat-bake output), relative to the scene file's "

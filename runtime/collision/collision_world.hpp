@@ -1,0 +1,107 @@
+#pragma once
+// Collision between bodies and within a body, once per time step (METHOD.md section 4):
+//   1. bounds: each body's medial primitives follow the deformation and are enlarged so that
+//      they still enclose the surface (MedialBounds: the handle bound from q for the
+//      semi-reduced solver, the exact per-vertex bound from positions otherwise; or the lazy
+//      update for comparison), then placed in the world;
+//   2. broad phase: a spatial hash over the primitives' boxes grown by the contact margin
+//      (object-object pairs, and self pairs of primitives that share no medial sphere);
+//   3. exact primitive tests on those pairs (radii grown by half the margin each);
+//   4. narrow phase, only among the surface triangles enclosed by colliding primitives:
+//      exact triangle-triangle intersection (counted, and the deepest vertex measured) and,
+//      for the response, the boundary nodes of one primitive against the triangles of the
+//      other (closest point within the margin, or behind the triangle);
+//   5. response: one contact per node with a separating plane through the midpoint between
+//      the node and its closest point (both bodies dynamic: each side is kept on its half, so
+//      neither is pushed twice) or through the closest point (a static body), solved by the
+//      solver's exact Signorini-Coulomb contact solve inside every PD iteration.
+// Contact acts on tet-mesh boundary nodes (which Mesh_3 puts on the surface); friction is
+// relative to the world, not to the other body's motion.
+
+#include <vector>
+
+#include "common/bake_data.hpp"
+#include "common/eigen_types.hpp"
+#include "runtime/collision/medial_bounds.hpp"
+#include "runtime/collision/spatial_hash.hpp"
+#include "runtime/pd/contact.hpp"
+
+namespace mat {
+
+struct CollisionSettings {
+    bool enabled = true;
+    bool self = true; ///< self-collision between primitives that share no sphere
+    RadiusUpdate bounds = RadiusUpdate::bound;
+    double margin = 0.01; ///< contact candidate distance, relative to the largest body diagonal
+    double friction = 0.3; ///< Coulomb coefficient between bodies
+};
+
+/// What the last detect() found and how long each phase took.
+struct CollisionReport {
+    int primitive_candidates = 0; ///< broad-phase pairs
+    int primitive_pairs = 0; ///< pairs that pass the exact primitive test
+    int triangle_tests = 0; ///< triangle pairs tested
+    int intersecting_triangles = 0; ///< triangle pairs that intersect
+    int contacts = 0; ///< node contacts handed to the solvers
+    double max_penetration = 0.0; ///< deepest node behind the other surface (m)
+    double bounds_seconds = 0.0, hash_seconds = 0.0, primitive_seconds = 0.0,
+           triangle_seconds = 0.0;
+};
+
+/// One body as the collision world sees it, in world coordinates.
+struct CollisionBodyState {
+    const MatX3* nodes = nullptr; ///< n x 3 node positions, in the solver's coordinates
+    /// k x 3 reduced coordinates with nodes = X + B q (semi-reduced solver), or null: then the
+    /// bounds are the exact per-vertex ones from the positions.
+    const MatX* q = nullptr;
+    Mat3 rotation = Mat3::Identity(); ///< world = R x + t for solver coordinates x
+    Vec3 translation = Vec3::Zero();
+    bool is_static = false; ///< gets no contacts (a mesh collider)
+};
+
+class CollisionWorld {
+public:
+    explicit CollisionWorld(const CollisionSettings& settings);
+
+    /// Adds a body from its bake (copies what collision needs). Bodies are numbered in order.
+    void add_body(const BakeData& bake);
+
+    /// Runs the pipeline on the bodies' current states (one per added body) and returns, per
+    /// body, its node contacts in its solver's coordinates.
+    const std::vector<std::vector<NodeContact>>& detect(
+        const std::vector<CollisionBodyState>& states);
+
+    const CollisionReport& last_report() const { return m_report; }
+    const CollisionSettings& settings() const { return m_settings; }
+    Index num_bodies() const { return static_cast<Index>(m_bodies.size()); }
+
+private:
+    struct Body {
+        MedialBounds bounds;
+        MedialCollisionData collision;
+        MatX3i faces; ///< surface triangles
+        VecXi surface_tet; ///< #Vs
+        MatX surface_barycentric; ///< #Vs x 4
+        MatX4i tets;
+        /// Boundary nodes grouped by the primitive of their nearest surface vertex (CSR).
+        VecXi node_indptr; ///< #P + 1
+        VecXi node_list;
+        VecXi medial_tet; ///< #S
+        MatX medial_barycentric; ///< #S x 4
+        double diagonal = 0.0; ///< rest bounding-box diagonal
+        // Per-step workspace, world coordinates.
+        MatX3 surface; ///< #Vs x 3
+        MatX3 nodes; ///< n x 3
+        MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
+    };
+
+    CollisionSettings m_settings;
+    std::vector<Body> m_bodies;
+    SpatialHash m_hash;
+    std::vector<BroadPhaseItem> m_items;
+    std::vector<ItemPair> m_pairs;
+    std::vector<std::vector<NodeContact>> m_contacts;
+    CollisionReport m_report;
+};
+
+} // namespace mat
