@@ -213,4 +213,14 @@ std::string hash_file(const std::string& path)
     return fmt::format("fnv1a64:{:016x}", hash);
 }
 
+std::string hash_text(std::string_view text)
+{
+    std::uint64_t hash = 1469598103934665603ull; // FNV-1a 64 offset basis
+    for (const char c : text) {
+        hash ^= static_cast<unsigned char>(c);
+        hash *= 1099511628211ull; // FNV-1a 64 prime
+    }
+    return fmt::format("fnv1a64:{:016x}", hash);
+}
+
 } // namespace mat

@@ -19,6 +19,7 @@
 // Sparse matrices are CSR groups (indptr, indices, data, shape), as scipy reads them.
 
 #include <string>
+#include <string_view>
 
 #include "common/bake_data.hpp"
 
@@ -36,5 +37,8 @@ BakeData read_bake(const std::string& path);
 
 /// FNV-1a 64-bit hash of a file's bytes, as "fnv1a64:<16 hex digits>". Throws if unreadable.
 std::string hash_file(const std::string& path);
+
+/// The same hash of bytes in memory (e.g. a generated medial mesh's .ma text).
+std::string hash_text(std::string_view text);
 
 } // namespace mat

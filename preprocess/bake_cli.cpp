@@ -4,6 +4,7 @@
 #include "common/log.hpp"
 #include "preprocess/cli/bake_command.hpp"
 #include "preprocess/cli/check_command.hpp"
+#include "preprocess/cli/medial_command.hpp"
 #include "preprocess/cli/sample_command.hpp"
 
 namespace mat {
@@ -13,6 +14,8 @@ int bake_main(int argc, char** argv)
     CLI::App app {
         "mat-bake: turn a closed surface and its medial mesh into one HDF5 bake.\n"
         "  mat-bake SURFACE --medial FILE.ma -o OUT.h5 [options]\n"
+        "  mat-bake SURFACE --spheres N -o OUT.h5 [options]   (generates the medial mesh)\n"
+        "  mat-bake medial SURFACE -o OUT.ma --spheres N\n"
         "  mat-bake inspect OUT.h5 | check SURFACE [--medial FILE.ma] | sample NAME -o DIR",
         "mat-bake"
     };
@@ -28,6 +31,8 @@ int bake_main(int argc, char** argv)
     CLI::App* inspect = add_inspect_command(app, inspect_path);
     SampleCommandOptions sample_options;
     CLI::App* sample = add_sample_command(app, sample_options);
+    MedialCommandOptions medial_options;
+    CLI::App* medial = add_medial_command(app, medial_options);
 
     return run_cli(app, argc, argv, [&] {
         apply_common_options(common);
@@ -37,6 +42,8 @@ int bake_main(int argc, char** argv)
             run_inspect(inspect_path);
         else if (sample->parsed())
             run_sample_command(sample_options);
+        else if (medial->parsed())
+            run_medial_command(medial_options);
         else
             run_bake_command(bake_options);
     });

@@ -161,9 +161,13 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report)
             options.tet_size);
     if (options.weights_per_node < 1)
         throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
+    if (options.spheres > 0 && !options.medial.empty())
+        throw_error("--spheres and --medial exclude each other: generate the medial mesh or read "
+                    "it, not both");
     BakeData bake;
     bake.surface_file = options.surface;
     bake.medial_file = options.medial;
+    report.medial_generated = options.spheres > 0;
 
     // 1. Inputs.
     MedialMesh input_medial;
@@ -171,14 +175,25 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report)
         bake.surface = read_surface(options.surface);
         const SurfaceReport surface_report = validate_surface(bake.surface);
         require_closed_manifold(surface_report, options.surface);
+        bake.surface_hash = hash_file(options.surface);
+        report.bbox_diagonal = surface_report.bbox.diagonal().norm();
+        if (report.medial_generated)
+            return;
         input_medial = read_medial(options.medial);
         if (input_medial.num_spheres() == 0)
             throw_error("{}: the medial mesh has no sphere", options.medial);
         require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
-        bake.surface_hash = hash_file(options.surface);
         bake.medial_hash = hash_file(options.medial);
-        report.bbox_diagonal = surface_report.bbox.diagonal().norm();
     });
+    if (report.medial_generated)
+        stage(report, "generate medial", [&] {
+            MedialGeneratorOptions generator = options.generator;
+            generator.spheres = options.spheres;
+            generator.surface_name = options.surface;
+            input_medial = generate_medial_mesh(bake.surface, generator, &report.medial_quality);
+            bake.medial_file = fmt::format("(generated: {} spheres)", options.spheres);
+            bake.medial_hash = hash_text(format_medial(input_medial));
+        });
     report.surface_vertices = bake.surface.num_vertices();
     report.surface_faces = bake.surface.num_faces();
     report.medial_spheres = input_medial.num_spheres();
@@ -293,6 +308,10 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report)
     json["quadratic"] = options.quadratic;
     json["weights_per_node"] = options.weights_per_node;
     json["region_alpha"] = options.region_alpha;
+    if (report.medial_generated) {
+        json["spheres"] = options.spheres;
+        json["medial_samples"] = options.generator.samples;
+    }
     bake.options_json = json.dump();
     return bake;
 }
@@ -304,6 +323,8 @@ std::string BakeReport::summary() const
         surface_faces, bbox_diagonal);
     out += fmt::format("medial mesh: {} spheres, {} cones, {} slabs\n", medial_spheres,
         medial_cones, medial_slabs);
+    if (medial_generated)
+        out += fmt::format("generated medial mesh: {}\n", medial_quality.summary());
     out += fmt::format("coverage: {} of {} surface vertices outside the envelope, max {:.4g} "
                        "({:.3f}% of the diagonal); radii inflated by {:.4g}\n",
         uncovered_vertices, surface_vertices, max_outside,

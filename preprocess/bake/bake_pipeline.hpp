@@ -6,6 +6,7 @@
 
 #include "common/bake_data.hpp"
 #include "common/timer.hpp"
+#include "preprocess/medial/medial_generator.hpp"
 #include "preprocess/meshing/cgal_mesh3.hpp"
 
 namespace mat {
@@ -13,6 +14,9 @@ namespace mat {
 struct BakeOptions {
     std::string surface; ///< closed surface file
     std::string medial; ///< .ma file
+    /// > 0: generate the medial mesh with this many spheres instead of reading `medial`
+    Index spheres = 0;
+    MedialGeneratorOptions generator; ///< used when spheres > 0 (its `spheres` is overridden)
     std::string output; ///< .h5 bake file
     double tet_size = k_default_tet_size; ///< tet size as a fraction of the bbox diagonal
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
@@ -25,6 +29,8 @@ struct BakeReport {
     StageReport stages;
     Index surface_vertices = 0, surface_faces = 0;
     Index medial_spheres = 0, medial_cones = 0, medial_slabs = 0;
+    bool medial_generated = false;
+    MedialQuality medial_quality; ///< when generated
     Index uncovered_vertices = 0;
     double max_outside = 0.0; ///< before inflation, absolute
     double inflation = 0.0; ///< added to every radius

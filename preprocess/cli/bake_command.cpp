@@ -5,6 +5,7 @@
 #include "common/log.hpp"
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
+#include "preprocess/cli/medial_command.hpp"
 
 namespace mat {
 
@@ -13,8 +14,14 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
     app.add_option(
            "surface", options.surface, "Closed surface to bake (OBJ, PLY, STL, OFF, glTF, ...)")
         ->check(CLI::ExistingFile);
-    app.add_option("--medial", options.medial, "Its medial mesh (.ma, Q-MAT or the paper's)")
-        ->check(CLI::ExistingFile);
+    CLI::Option* medial
+        = app.add_option("--medial", options.medial, "Its medial mesh (.ma, Q-MAT or the paper's)")
+              ->check(CLI::ExistingFile);
+    app.add_option("--spheres", options.spheres,
+           "Generate the medial mesh with this many spheres instead of reading --medial")
+        ->check(CLI::PositiveNumber)
+        ->excludes(medial);
+    add_medial_generator_options(app, options.generator);
     app.add_option("-o,--output", options.output, "The bake file to write (.h5)");
     app.add_option(
            "--tet-size", options.tet_size, "Tet size as a fraction of the bounding-box diagonal")
@@ -29,8 +36,11 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
 
 void run_bake_command(const BakeOptions& options)
 {
-    if (options.surface.empty() || options.medial.empty() || options.output.empty())
-        throw CLI::RequiredError("a bake needs SURFACE, --medial and -o (or a subcommand)");
+    if (options.surface.empty() || (options.medial.empty() && options.spheres <= 0)
+        || options.output.empty())
+        throw CLI::RequiredError(
+            "a bake needs SURFACE, --medial and -o (or --spheres N instead of --medial, or a "
+            "subcommand)");
     Timer total;
     BakeReport report;
     const BakeData bake = run_bake(options, report);

@@ -272,8 +272,9 @@ bool primitives_intersect(const Primitive& a, const Primitive& b)
             return false;
     }
     // Faces whose bound exceeds the tolerance cannot hold a point with g <= tolerance.
+    const double above_tolerance = std::nextafter(tolerance, k_infinity);
     const PairCandidate best = minimize(
-        q, initial, [&](double) { return std::nextafter(tolerance, k_infinity); }, tolerance);
+        q, initial, [&](double) { return above_tolerance; }, tolerance);
     return best.g <= tolerance;
 }
 

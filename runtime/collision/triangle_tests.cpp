@@ -14,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace mat {
 
@@ -37,8 +38,14 @@ namespace {
     int projection_axis(const Vec3& a, const Vec3& b, const Vec3& c)
     {
         const Vec3 n = (b - a).cross(c - a).cwiseAbs();
+        // A 3-element sorting network: safe whatever the values (NaN included).
         std::array<int, 3> order = { 0, 1, 2 };
-        std::sort(order.begin(), order.end(), [&](int i, int j) { return n[i] > n[j]; });
+        if (n[order[1]] > n[order[0]])
+            std::swap(order[0], order[1]);
+        if (n[order[2]] > n[order[1]])
+            std::swap(order[1], order[2]);
+        if (n[order[1]] > n[order[0]])
+            std::swap(order[0], order[1]);
         for (const int axis : order)
             if (normal_sign(a, b, c, axis) != 0)
                 return axis;

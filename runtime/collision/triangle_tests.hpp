@@ -12,9 +12,11 @@
 // question for the closed triangles whose corners are exactly the given doubles: touching at a
 // point or along an edge counts as intersecting, coplanar overlap is found, degenerate
 // (zero-area) triangles are treated as the segments or points they are.
-// Failure modes: coordinates must be finite and the products of three coordinate differences
-// must neither overflow nor underflow (|x| below ~1e100, nonzero differences above ~1e-100);
-// outside that range (or with NaN) the answer is unspecified but the call does not crash.
+// Failure modes: coordinates must be finite, and the exact expansions must neither overflow nor
+// underflow: coordinates below ~1e100 in magnitude, and nonzero coordinate differences above
+// ~1e-90 (the smallest components of a product of three differences are ~1e-32 of it and must
+// stay normal doubles). Outside that range (or with NaN) the answer is unspecified, but the call
+// returns normally.
 // The closest-point queries are ordinary floating-point computations (not exact).
 
 #include "common/eigen_types.hpp"
