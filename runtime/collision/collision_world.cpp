@@ -14,7 +14,7 @@ namespace mat {
 
 namespace {
 
-    /// Points embedded in tets: out(i) = sum_c bary(i, c) nodes(tets(tet(i), c)).
+    /// Medial sphere centers embedded in tets: out(i) = sum_c bary(i, c) nodes(tets(tet(i), c)).
     void embed(
         const MatX3& nodes, const MatX4i& tets, const VecXi& tet, const MatX& bary, MatX3& out)
     {
@@ -83,14 +83,18 @@ namespace {
         return result;
     }
 
-    Box3 triangle_box(const MatX3& x, const MatX3i& faces, Index f, double grow)
+    Box3 triangle_box(const MatX3& x, const MatX3i& faces, Index f)
     {
         Box3 box;
         for (int c = 0; c < 3; ++c)
             box.extend(Vec3(x.row(faces(f, c)).transpose()));
-        box.min().array() -= grow;
-        box.max().array() += grow;
         return box;
+    }
+
+    /// `box` grown by `grow` on every side.
+    Box3 grown(const Box3& box, double grow)
+    {
+        return Box3(box.min().array() - grow, box.max().array() + grow);
     }
 
 } // namespace
@@ -105,11 +109,7 @@ CollisionWorld::CollisionWorld(const CollisionSettings& settings)
 
 void CollisionWorld::add_body(const BakeData& bake)
 {
-    Body body { MedialBounds(bake) };
-    body.collision = bake.collision;
-    body.faces = bake.surface.faces;
-    body.surface_tet = bake.surface_tet;
-    body.surface_barycentric = bake.surface_barycentric;
+    Body body { MedialBounds(bake), bake.collision, SurfaceView(bake) };
     body.tets = bake.tet_mesh.tets;
     body.medial_tet = bake.medial_tet;
     body.medial_barycentric = bake.medial_barycentric;
@@ -160,7 +160,8 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
         Body& body = m_bodies[b];
         const CollisionBodyState& state = states[b];
         MAT_CHECK(state.nodes != nullptr, "collision: body {} has no positions", b);
-        embed(*state.nodes, body.tets, body.surface_tet, body.surface_barycentric, body.surface);
+        body.surface.resize(body.surface_view.num_vertices(), 3);
+        body.surface_view.positions(*state.nodes, body.surface);
         if (state.q != nullptr) {
             body.bounds.update(*state.q, m_settings.bounds);
         } else {
@@ -172,6 +173,10 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
         const Eigen::RowVector3d t = state.translation.transpose();
         body.surface = (body.surface * r.transpose()).rowwise() + t;
         body.nodes = ((*state.nodes) * r.transpose()).rowwise() + t;
+        const MatX3i& faces = body.surface_view.faces();
+        body.face_boxes.resize(faces.rows());
+        for (Index f = 0; f < faces.rows(); ++f)
+            body.face_boxes[f] = triangle_box(body.surface, faces, f);
         for (Index p = 0; p < body.bounds.num_primitives(); ++p) {
             BroadPhaseItem item;
             item.body = static_cast<int>(b);
@@ -246,19 +251,20 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
             return;
         const Body& a = m_bodies[body_a];
         const Body& b = m_bodies[body_b];
+        const MatX3i& faces_b = b.surface_view.faces();
         const VecXi& indptr = b.collision.face_primitives_indptr;
         for (int k = a.node_indptr(prim_a); k < a.node_indptr(prim_a + 1); ++k) {
             const int node = a.node_list(k);
             const Vec3 x = a.nodes.row(node).transpose();
             for (int j = indptr(prim_b); j < indptr(prim_b + 1); ++j) {
                 const int f = b.collision.face_primitives(j);
-                if (!triangle_box(b.surface, b.faces, f, margin).contains(x))
+                if (!grown(b.face_boxes[f], margin).contains(x))
                     continue;
                 const PointTriangleClosest closest
-                    = point_triangle_closest(x, b.surface.row(b.faces(f, 0)).transpose(),
-                        b.surface.row(b.faces(f, 1)).transpose(),
-                        b.surface.row(b.faces(f, 2)).transpose());
-                const Vec3 n = face_normal(b.surface, b.faces, f);
+                    = point_triangle_closest(x, b.surface.row(faces_b(f, 0)).transpose(),
+                        b.surface.row(faces_b(f, 1)).transpose(),
+                        b.surface.row(faces_b(f, 2)).transpose());
+                const Vec3 n = face_normal(b.surface, faces_b, f);
                 const double distance = std::sqrt(closest.squared_distance);
                 const double signed_distance
                     = n.dot(x - closest.point) < 0.0 ? -distance : distance;
@@ -276,31 +282,33 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
         const BroadPhaseItem& ib = m_items[pair.second];
         const Body& a = m_bodies[ia.body];
         const Body& b = m_bodies[ib.body];
+        const MatX3i& faces_a = a.surface_view.faces();
+        const MatX3i& faces_b = b.surface_view.faces();
         // Triangle-triangle tests among the enclosed triangles (box-filtered).
         const VecXi& ia_ptr = a.collision.face_primitives_indptr;
         const VecXi& ib_ptr = b.collision.face_primitives_indptr;
         for (int j = ia_ptr(ia.primitive); j < ia_ptr(ia.primitive + 1); ++j) {
             const int fa = a.collision.face_primitives(j);
-            const Box3 box_a = triangle_box(a.surface, a.faces, fa, 0.0);
+            const Box3& box_a = a.face_boxes[fa];
             for (int l = ib_ptr(ib.primitive); l < ib_ptr(ib.primitive + 1); ++l) {
                 const int fb = b.collision.face_primitives(l);
                 if (ia.body == ib.body) {
                     bool shared = false;
                     for (int u = 0; u < 3; ++u)
                         for (int v = 0; v < 3; ++v)
-                            shared |= a.faces(fa, u) == b.faces(fb, v);
+                            shared |= faces_a(fa, u) == faces_b(fb, v);
                     if (shared)
                         continue;
                 }
-                if (!box_a.intersects(triangle_box(b.surface, b.faces, fb, 0.0)))
+                if (!box_a.intersects(b.face_boxes[fb]))
                     continue;
                 ++m_report.triangle_tests;
-                if (triangles_intersect(a.surface.row(a.faces(fa, 0)).transpose(),
-                        a.surface.row(a.faces(fa, 1)).transpose(),
-                        a.surface.row(a.faces(fa, 2)).transpose(),
-                        b.surface.row(b.faces(fb, 0)).transpose(),
-                        b.surface.row(b.faces(fb, 1)).transpose(),
-                        b.surface.row(b.faces(fb, 2)).transpose()))
+                if (triangles_intersect(a.surface.row(faces_a(fa, 0)).transpose(),
+                        a.surface.row(faces_a(fa, 1)).transpose(),
+                        a.surface.row(faces_a(fa, 2)).transpose(),
+                        b.surface.row(faces_b(fb, 0)).transpose(),
+                        b.surface.row(faces_b(fb, 1)).transpose(),
+                        b.surface.row(faces_b(fb, 2)).transpose()))
                     ++m_report.intersecting_triangles;
             }
         }

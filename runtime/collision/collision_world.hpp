@@ -24,6 +24,7 @@
 #include "common/eigen_types.hpp"
 #include "runtime/collision/medial_bounds.hpp"
 #include "runtime/collision/spatial_hash.hpp"
+#include "runtime/output/surface_view.hpp"
 #include "runtime/pd/contact.hpp"
 
 namespace mat {
@@ -79,9 +80,7 @@ private:
     struct Body {
         MedialBounds bounds;
         MedialCollisionData collision;
-        MatX3i faces; ///< surface triangles
-        VecXi surface_tet; ///< #Vs
-        MatX surface_barycentric; ///< #Vs x 4
+        SurfaceView surface_view; ///< the surface embedded in the tets
         MatX4i tets;
         /// Boundary nodes grouped by the primitive of their nearest surface vertex (CSR).
         VecXi node_indptr; ///< #P + 1
@@ -91,6 +90,7 @@ private:
         double diagonal = 0.0; ///< rest bounding-box diagonal
         // Per-step workspace, world coordinates.
         MatX3 surface; ///< #Vs x 3
+        std::vector<Box3> face_boxes; ///< #F, of the triangles at `surface`
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
     };

@@ -17,6 +17,7 @@
 #include "common/medial_primitives.hpp"
 #include "common/medial_primitives_kernels.hpp"
 #include "tests/support/error_checks.hpp"
+#include "tests/support/golden_section.hpp"
 
 namespace mat {
 namespace {
@@ -171,25 +172,7 @@ namespace {
 
     template <typename F> double golden_min(F f, double lo, double hi, int iterations = 90)
     {
-        const double g = (std::sqrt(5.0) - 1.0) / 2.0;
-        double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
-        double f1 = f(x1), f2 = f(x2);
-        for (int k = 0; k < iterations; ++k) {
-            if (f1 <= f2) {
-                hi = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = hi - g * (hi - lo);
-                f1 = f(x1);
-            } else {
-                lo = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = lo + g * (hi - lo);
-                f2 = f(x2);
-            }
-        }
-        return std::min({ f1, f2, f(lo), f(hi) });
+        return test::golden_section_min(f, lo, hi, iterations);
     }
 
     /// min of the convex F over the parameter domain by (nested) golden-section search.

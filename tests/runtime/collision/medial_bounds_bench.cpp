@@ -20,6 +20,7 @@
 #include "common/medial_primitives.hpp"
 #include "formats/bake_io.hpp"
 #include "runtime/collision/medial_bounds.hpp"
+#include "tests/support/medial_bounds_checks.hpp"
 
 namespace {
 std::atomic<long> g_allocations { 0 };
@@ -44,37 +45,7 @@ void operator delete(void* p, std::size_t) noexcept
 namespace {
 
 using namespace mat;
-
-MatX3 affine_q(const BakeData& bake, const Mat3& a, const Vec3& t)
-{
-    MatX3 q = MatX3::Zero(bake.num_columns(), 3);
-    for (Index j = 0; j < bake.num_handles(); ++j) {
-        const int offset = bake.handle_column_offsets(j);
-        q.row(offset) = (a * bake.handle_centers.row(j).transpose() + t).transpose();
-        for (int d = 0; d < 3; ++d)
-            q.row(offset + 1 + d) = bake.handle_scales(j) * a.col(d).transpose();
-    }
-    return q;
-}
-
-int count_outside(const MedialBounds& bounds, const BakeData& bake, const MatX3& positions)
-{
-    int outside = 0;
-    for (Index v = 0; v < positions.rows(); ++v) {
-        const Index p = bake.collision.vertex_primitive(v);
-        const Vec3 x = positions.row(v).transpose();
-        bool inside = false;
-        if (bounds.counts()(p) == 1)
-            inside = bounds.sphere(p, 0).contains(x, 1e-12);
-        else if (bounds.counts()(p) == 2)
-            inside = MedialCone(bounds.sphere(p, 0), bounds.sphere(p, 1)).contains(x, 1e-12);
-        else
-            inside = MedialSlab(bounds.sphere(p, 0), bounds.sphere(p, 1), bounds.sphere(p, 2))
-                         .contains(x, 1e-12);
-        outside += inside ? 0 : 1;
-    }
-    return outside;
-}
+using namespace mat::test;
 
 // Wall-clock ns per update.
 template <typename Update> double wall_ns_per_update(int updates, Update&& update)
@@ -164,7 +135,8 @@ int main(int argc, char** argv)
                 const long allocations = g_allocations.load() - before;
                 std::printf("  %-28s %13.0f %13.0f %14.4g %9d%s\n", name, all, one,
                     bounds.increments().mean() / mean_radius,
-                    count_outside(bounds, bake, positions), allocations ? " (allocates)" : "");
+                    count_outside(bounds, bake, positions, 1e-12),
+                    allocations ? " (allocates)" : "");
             };
             report("bound", [&] { bounds.update(q, RadiusUpdate::bound); });
             report("bound, no rigid removal",

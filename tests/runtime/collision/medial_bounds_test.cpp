@@ -18,9 +18,12 @@
 #include "preprocess/bake/bake_pipeline.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "tests/support/error_checks.hpp"
+#include "tests/support/medial_bounds_checks.hpp"
 
 namespace mat {
 namespace {
+    using test::affine_q;
+    using test::count_outside;
 
     // A unit cube whose faces are split into n x n squares (two triangles each), as OBJ text.
     std::string subdivided_cube_obj(int n)
@@ -92,20 +95,6 @@ namespace {
         return bake;
     }
 
-    // Coefficients (k x 3) of the displacement u(x) = A x + t: handle j gets constant A c_j + t
-    // and linear columns s_j A.
-    MatX3 affine_q(const BakeData& bake, const Mat3& a, const Vec3& t)
-    {
-        MatX3 q = MatX3::Zero(bake.num_columns(), 3);
-        for (Index j = 0; j < bake.num_handles(); ++j) {
-            const int offset = bake.handle_column_offsets(j);
-            q.row(offset) = (a * bake.handle_centers.row(j).transpose() + t).transpose();
-            for (int d = 0; d < 3; ++d)
-                q.row(offset + 1 + d) = bake.handle_scales(j) * a.col(d).transpose();
-        }
-        return q;
-    }
-
     // Surface vertex positions #Vs x 3 for q: nodes x = X + B q, interpolated in their tets.
     MatX3 surface_positions(const BakeData& bake, const MatX3& q)
     {
@@ -116,32 +105,6 @@ namespace {
                 out.row(v) += bake.surface_barycentric(v, k)
                     * nodes.row(bake.tet_mesh.tets(bake.surface_tet(v), k));
         return out;
-    }
-
-    // How many surface vertices lie outside their (enlarged, deformed) primitive.
-    int count_outside(
-        const MedialBounds& bounds, const BakeData& bake, const MatX3& positions, double tolerance)
-    {
-        int outside = 0;
-        for (Index v = 0; v < positions.rows(); ++v) {
-            const Index p = bake.collision.vertex_primitive(v);
-            const Vec3 x = positions.row(v).transpose();
-            bool inside = false;
-            switch (bounds.counts()(p)) {
-            case 1:
-                inside = bounds.sphere(p, 0).contains(x, tolerance);
-                break;
-            case 2:
-                inside
-                    = MedialCone(bounds.sphere(p, 0), bounds.sphere(p, 1)).contains(x, tolerance);
-                break;
-            default:
-                inside = MedialSlab(bounds.sphere(p, 0), bounds.sphere(p, 1), bounds.sphere(p, 2))
-                             .contains(x, tolerance);
-            }
-            outside += inside ? 0 : 1;
-        }
-        return outside;
     }
 
     Mat3 random_rotation(std::mt19937& rng, double max_angle)

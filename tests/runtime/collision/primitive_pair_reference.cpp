@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/medial_primitives_kernels.hpp"
+#include "tests/support/golden_section.hpp"
 
 namespace mat::test {
 
@@ -45,25 +46,7 @@ namespace {
     /// min of a convex (hence unimodal) function over [lo, hi] by golden-section search.
     template <typename F> double golden_min(F f, double lo, double hi, int iterations = 50)
     {
-        const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
-        double x1 = hi - ratio * (hi - lo), x2 = lo + ratio * (hi - lo);
-        double f1 = f(x1), f2 = f(x2);
-        for (int k = 0; k < iterations; ++k) {
-            if (f1 <= f2) {
-                hi = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = hi - ratio * (hi - lo);
-                f1 = f(x1);
-            } else {
-                lo = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = lo + ratio * (hi - lo);
-                f2 = f(x2);
-            }
-        }
-        return std::min({ f1, f2, f(lo), f(hi) });
+        return test::golden_section_min(f, lo, hi, iterations);
     }
 
     /// min over a primitive's weights of |p - c(w)| - r(w) and its argmin, through the
