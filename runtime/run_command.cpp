@@ -1,5 +1,6 @@
 #include "runtime/run_command.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -51,8 +52,48 @@ namespace {
         };
     }
 
-    std::string timing_table(const SolverTimings& t, double export_seconds, double measure_seconds,
-        double total_seconds, long steps)
+    /// Folds one step's collision report into a frame's: counts and penetration are maxima over
+    /// the steps, seconds are sums.
+    void accumulate(CollisionReport& into, const CollisionReport& step)
+    {
+        into.primitive_candidates = std::max(into.primitive_candidates, step.primitive_candidates);
+        into.primitive_pairs = std::max(into.primitive_pairs, step.primitive_pairs);
+        into.triangle_tests = std::max(into.triangle_tests, step.triangle_tests);
+        into.intersecting_triangles
+            = std::max(into.intersecting_triangles, step.intersecting_triangles);
+        into.contacts = std::max(into.contacts, step.contacts);
+        into.max_penetration = std::max(into.max_penetration, step.max_penetration);
+        into.bounds_seconds += step.bounds_seconds;
+        into.hash_seconds += step.hash_seconds;
+        into.primitive_seconds += step.primitive_seconds;
+        into.triangle_seconds += step.triangle_seconds;
+        into.response_seconds += step.response_seconds;
+    }
+
+    double detection_seconds(const CollisionReport& r)
+    {
+        return r.bounds_seconds + r.hash_seconds + r.primitive_seconds + r.triangle_seconds
+            + r.response_seconds;
+    }
+
+    nlohmann::json collision_phase_json(const CollisionReport& r, double scale)
+    {
+        return nlohmann::json { { "bounds", scale * r.bounds_seconds },
+            { "hash", scale * r.hash_seconds }, { "primitives", scale * r.primitive_seconds },
+            { "triangles", scale * r.triangle_seconds },
+            { "response", scale * r.response_seconds } };
+    }
+
+    nlohmann::json collision_json(const CollisionReport& r)
+    {
+        return nlohmann::json { { "candidates", r.primitive_candidates },
+            { "primitive_pairs", r.primitive_pairs }, { "triangle_tests", r.triangle_tests },
+            { "intersecting_triangles", r.intersecting_triangles }, { "contacts", r.contacts },
+            { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
+    }
+
+    std::string timing_table(const SolverTimings& t, double collision_seconds,
+        double export_seconds, double measure_seconds, double total_seconds, long steps)
     {
         struct Row {
             const char* phase;
@@ -63,6 +104,7 @@ namespace {
             { "global: right-hand side", t.rhs },
             { "global: solve", t.solve },
             { "global: reconstruct", t.reconstruct },
+            { "collision (detection)", collision_seconds },
             { "collision (contact)", t.contact },
             { "export", export_seconds },
             { "measures (stats)", measure_seconds },
@@ -139,6 +181,7 @@ void run_simulation(const RunOptions& options)
     nlohmann::json frame_stats = nlohmann::json::array();
     double export_seconds = 0.0, measure_seconds = 0.0;
     SolverTimings before = total_timings(simulation);
+    CollisionReport frame_collision, total_collision;
     Timer loop;
 
     auto output_frame
@@ -177,6 +220,8 @@ void run_simulation(const RunOptions& options)
                       { "step_seconds", step_seconds },
                       { "phase_seconds", phase_json(now, before, this_export, 1.0) },
                       { "bodies", std::move(bodies) } };
+                  if (simulation.collision() != nullptr)
+                      entry["collision"] = collision_json(frame_collision);
                   frame_stats.push_back(std::move(entry));
                   before = now;
               }
@@ -189,8 +234,13 @@ void run_simulation(const RunOptions& options)
         Timer step_timer;
         for (auto& r : reports)
             r = StepReport {};
+        frame_collision = CollisionReport {};
         for (int s = 0; s < scene.steps_per_frame; ++s) {
             simulation.step();
+            if (const CollisionWorld* collision = simulation.collision()) {
+                accumulate(frame_collision, collision->last_report());
+                accumulate(total_collision, collision->last_report());
+            }
             for (std::size_t b = 0; b < reports.size(); ++b) {
                 const StepReport& last = simulation.bodies()[b].solver->last_report();
                 reports[b].contacts = std::max(reports[b].contacts, last.contacts);
@@ -216,7 +266,9 @@ void run_simulation(const RunOptions& options)
                 "peak RSS %.0f MB\n",
         simulation.time(), steps, frames, exporter.files_written(), loop_seconds, setup_seconds,
         peak_rss_bytes() / 1e6);
-    std::fputs(timing_table(timings, export_seconds, measure_seconds, loop_seconds, steps).c_str(),
+    std::fputs(timing_table(timings, detection_seconds(total_collision), export_seconds,
+                   measure_seconds, loop_seconds, steps)
+                   .c_str(),
         stdout);
     std::fflush(stdout);
 
@@ -228,6 +280,9 @@ void run_simulation(const RunOptions& options)
                 phase_json(timings, SolverTimings {}, export_seconds,
                     steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0) },
             { "frames", std::move(frame_stats) } };
+        if (simulation.collision() != nullptr)
+            document["collision_ms_per_step"] = collision_phase_json(
+                total_collision, steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0);
         write_text_atomically(options.stats, document.dump(1) + "\n");
     }
 }

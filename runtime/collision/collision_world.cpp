@@ -5,10 +5,11 @@
 #include <limits>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/error.hpp"
 #include "common/timer.hpp"
-#include "runtime/collision/primitive_pair.hpp"
-#include "runtime/collision/triangle_tests.hpp"
 
 namespace mat {
 
@@ -83,24 +84,15 @@ namespace {
         return result;
     }
 
-    Box3 triangle_box(const MatX3& x, const MatX3i& faces, Index f)
-    {
-        Box3 box;
-        for (int c = 0; c < 3; ++c)
-            box.extend(Vec3(x.row(faces(f, c)).transpose()));
-        return box;
-    }
-
-    /// `box` grown by `grow` on every side.
-    Box3 grown(const Box3& box, double grow)
-    {
-        return Box3(box.min().array() - grow, box.max().array() + grow);
-    }
-
 } // namespace
 
 CollisionWorld::CollisionWorld(const CollisionSettings& settings)
     : m_settings(settings)
+    , m_hash([&] {
+        SpatialHashSettings hash;
+        hash.self_pairs = settings.self;
+        return hash;
+    }())
 {
     if (!(settings.margin >= 0.0) || !(settings.friction >= 0.0))
         throw_error("collision: margin {} and friction {} must be >= 0", settings.margin,
@@ -109,7 +101,7 @@ CollisionWorld::CollisionWorld(const CollisionSettings& settings)
 
 void CollisionWorld::add_body(const BakeData& bake)
 {
-    Body body { MedialBounds(bake), bake.collision, SurfaceView(bake) };
+    Body body(bake);
     body.tets = bake.tet_mesh.tets;
     body.medial_tet = bake.medial_tet;
     body.medial_barycentric = bake.medial_barycentric;
@@ -138,6 +130,71 @@ void CollisionWorld::add_body(const BakeData& bake)
     m_contacts.resize(m_bodies.size());
 }
 
+void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state, double margin)
+{
+    Body& body = m_bodies[b];
+    MAT_CHECK(state.nodes != nullptr, "collision: body {} has no positions", b);
+    const MatX3& nodes = *state.nodes;
+    body.surface.resize(body.surface_view.num_vertices(), 3);
+    body.surface_view.positions(nodes, body.surface);
+    if (state.q != nullptr) {
+        body.bounds.update(*state.q, m_settings.bounds);
+    } else {
+        embed(nodes, body.tets, body.medial_tet, body.medial_barycentric, body.sphere_centers);
+        body.bounds.update_from_positions(body.surface, body.sphere_centers);
+    }
+
+    // World coordinates: x -> R x + t for the nodes and (in place) the surface.
+    const Mat3& r = state.rotation;
+    const Vec3& t = state.translation;
+    body.nodes.resize(nodes.rows(), 3);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, nodes.rows(), 512), [&](const auto& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            body.nodes.row(i) = (r * Vec3(nodes.row(i).transpose()) + t).transpose();
+    });
+    MatX3& surface = body.surface;
+    tbb::parallel_for(tbb::blocked_range<Index>(0, surface.rows(), 512), [&](const auto& range) {
+        for (Index i = range.begin(); i != range.end(); ++i)
+            surface.row(i) = (r * Vec3(surface.row(i).transpose()) + t).transpose();
+    });
+
+    // Triangle boxes and unit normals.
+    const MatX3i& faces = body.surface_view.faces();
+    body.face_boxes.resize(static_cast<std::size_t>(faces.rows()));
+    body.face_normals.resize(faces.rows(), 3);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, faces.rows(), 512), [&](const auto& range) {
+        for (Index f = range.begin(); f != range.end(); ++f) {
+            const Vec3 a = surface.row(faces(f, 0)).transpose();
+            const Vec3 b1 = surface.row(faces(f, 1)).transpose();
+            const Vec3 c = surface.row(faces(f, 2)).transpose();
+            body.face_boxes[static_cast<std::size_t>(f)]
+                = Box3(a.cwiseMin(b1).cwiseMin(c), a.cwiseMax(b1).cwiseMax(c));
+            const Vec3 n = (b1 - a).cross(c - a);
+            const double length = n.norm();
+            const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+            body.face_normals.row(f) = unit.transpose();
+        }
+    });
+
+    // The body's primitives in the world, radii grown by half the margin, and their boxes.
+    for (Index p = 0; p < body.bounds.num_primitives(); ++p) {
+        BroadPhaseItem item;
+        item.body = static_cast<int>(b);
+        item.primitive = static_cast<int>(p);
+        Primitive prim;
+        prim.count = body.bounds.counts()(p);
+        for (int i = 0; i < prim.count; ++i) {
+            prim.centers[i] = r * body.bounds.centers().block<1, 3>(p, 3 * i).transpose() + t;
+            prim.radii[i] = body.bounds.radii()(p, i) + 0.5 * margin;
+            item.box.extend(Box3(
+                prim.centers[i].array() - prim.radii[i], prim.centers[i].array() + prim.radii[i]));
+            item.spheres[i] = body.collision.primitive_spheres(p, i);
+        }
+        m_items.push_back(item);
+        m_primitives.push_back(prim);
+    }
+}
+
 const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     const std::vector<CollisionBodyState>& states)
 {
@@ -146,6 +203,7 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     m_report = CollisionReport {};
     for (auto& c : m_contacts)
         c.clear();
+    m_intersecting.clear();
     if (!m_settings.enabled || m_bodies.empty())
         return m_contacts;
     double diagonal = 0.0;
@@ -153,191 +211,145 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
         diagonal = std::max(diagonal, body.diagonal);
     const double margin = m_settings.margin * diagonal;
 
-    // 1. Bounds, and the surfaces and nodes in world coordinates.
+    // 1. Bounds, and the surfaces, nodes and primitives in world coordinates.
     Timer timer;
     m_items.clear();
-    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-        Body& body = m_bodies[b];
-        const CollisionBodyState& state = states[b];
-        MAT_CHECK(state.nodes != nullptr, "collision: body {} has no positions", b);
-        body.surface.resize(body.surface_view.num_vertices(), 3);
-        body.surface_view.positions(*state.nodes, body.surface);
-        if (state.q != nullptr) {
-            body.bounds.update(*state.q, m_settings.bounds);
-        } else {
-            embed(*state.nodes, body.tets, body.medial_tet, body.medial_barycentric,
-                body.sphere_centers);
-            body.bounds.update_from_positions(body.surface, body.sphere_centers);
-        }
-        const Mat3& r = state.rotation;
-        const Eigen::RowVector3d t = state.translation.transpose();
-        body.surface = (body.surface * r.transpose()).rowwise() + t;
-        body.nodes = ((*state.nodes) * r.transpose()).rowwise() + t;
-        const MatX3i& faces = body.surface_view.faces();
-        body.face_boxes.resize(faces.rows());
-        for (Index f = 0; f < faces.rows(); ++f)
-            body.face_boxes[f] = triangle_box(body.surface, faces, f);
-        for (Index p = 0; p < body.bounds.num_primitives(); ++p) {
-            BroadPhaseItem item;
-            item.body = static_cast<int>(b);
-            item.primitive = static_cast<int>(p);
-            for (int i = 0; i < body.bounds.counts()(p); ++i) {
-                const Vec3 c = r * body.bounds.centers().block<1, 3>(p, 3 * i).transpose()
-                    + state.translation;
-                const double radius = body.bounds.radii()(p, i) + 0.5 * margin;
-                item.box.extend(Box3(c.array() - radius, c.array() + radius));
-                item.spheres[i] = body.collision.primitive_spheres(p, i);
-            }
-            m_items.push_back(item);
-        }
-    }
+    m_primitives.clear();
+    for (std::size_t b = 0; b < m_bodies.size(); ++b)
+        update_body(b, states[b], margin);
     m_report.bounds_seconds = timer.seconds();
 
     // 2. Broad phase.
     timer.restart();
-    m_hash.build(m_items);
-    m_hash.pairs(m_pairs);
+    if (m_settings.all_pairs) {
+        m_pairs.clear();
+        const int n = static_cast<int>(m_items.size());
+        for (int i = 0; i < n; ++i)
+            for (int j = i + 1; j < n; ++j)
+                if ((m_settings.self || m_items[i].body != m_items[j].body)
+                    && broad_phase_pair_allowed(m_items[i], m_items[j]))
+                    m_pairs.emplace_back(i, j);
+    } else {
+        m_hash.build(m_items);
+        m_hash.pairs(m_pairs);
+    }
     m_report.primitive_candidates = static_cast<int>(m_pairs.size());
     m_report.hash_seconds = timer.seconds();
 
-    // 3. Exact primitive tests (world coordinates, radii grown by half the margin).
+    // 3. Exact primitive tests, in parallel; kept in candidate order.
     timer.restart();
-    const auto world_primitive = [&](const BroadPhaseItem& item) {
-        const Body& body = m_bodies[item.body];
-        const CollisionBodyState& state = states[item.body];
-        Primitive prim;
-        prim.count = body.bounds.counts()(item.primitive);
-        for (int i = 0; i < prim.count; ++i) {
-            prim.centers[i] = state.rotation
-                    * body.bounds.centers().block<1, 3>(item.primitive, 3 * i).transpose()
-                + state.translation;
-            prim.radii[i] = body.bounds.radii()(item.primitive, i) + 0.5 * margin;
-        }
-        return prim;
-    };
-    std::vector<ItemPair> colliding;
-    for (const ItemPair& pair : m_pairs) {
-        const BroadPhaseItem& a = m_items[pair.first];
-        const BroadPhaseItem& b = m_items[pair.second];
-        if (a.body == b.body && !m_settings.self)
-            continue;
-        if (states[a.body].is_static && states[b.body].is_static)
-            continue;
-        if (primitives_intersect(world_primitive(a), world_primitive(b)))
-            colliding.push_back(pair);
-    }
-    m_report.primitive_pairs = static_cast<int>(colliding.size());
+    m_hit.assign(m_pairs.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_pairs.size(), 32),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                const auto [i, j] = m_pairs[k];
+                const BroadPhaseItem& a = m_items[static_cast<std::size_t>(i)];
+                const BroadPhaseItem& b = m_items[static_cast<std::size_t>(j)];
+                if ((a.body == b.body && !m_settings.self)
+                    || (states[a.body].is_static && states[b.body].is_static))
+                    continue;
+                m_hit[k] = primitives_intersect(m_primitives[static_cast<std::size_t>(i)],
+                    m_primitives[static_cast<std::size_t>(j)]);
+            }
+        });
+    m_colliding.clear();
+    for (std::size_t k = 0; k < m_pairs.size(); ++k)
+        if (m_hit[k])
+            m_colliding.push_back(m_pairs[k]);
+    m_report.primitive_pairs = static_cast<int>(m_colliding.size());
     m_report.primitive_seconds = timer.seconds();
 
-    // 4. Narrow phase and 5. contacts: per node, the closest triangle of the other primitive.
+    // 4. Narrow phase.
     timer.restart();
-    struct Best {
-        double distance; ///< signed: negative behind the triangle
-        Vec3 closest;
-        Vec3 normal;
-        int other_body;
-    };
-    std::vector<std::unordered_map<int, Best>> best(m_bodies.size());
-    const auto face_normal = [](const MatX3& x, const MatX3i& faces, Index f) {
-        const Vec3 a = x.row(faces(f, 0)).transpose();
-        const Vec3 n = (Vec3(x.row(faces(f, 1)).transpose()) - a)
-                           .cross(Vec3(x.row(faces(f, 2)).transpose()) - a);
-        const double length = n.norm();
-        return length > 0.0 ? Vec3(n / length) : Vec3::UnitY();
-    };
-    // Nodes of (body_a, prim_a) against the triangles of (body_b, prim_b).
-    const auto nodes_against = [&](int body_a, int prim_a, int body_b, int prim_b) {
-        if (states[body_a].is_static)
-            return;
-        const Body& a = m_bodies[body_a];
-        const Body& b = m_bodies[body_b];
-        const MatX3i& faces_b = b.surface_view.faces();
-        const VecXi& indptr = b.collision.face_primitives_indptr;
-        for (int k = a.node_indptr(prim_a); k < a.node_indptr(prim_a + 1); ++k) {
-            const int node = a.node_list(k);
-            const Vec3 x = a.nodes.row(node).transpose();
-            for (int j = indptr(prim_b); j < indptr(prim_b + 1); ++j) {
-                const int f = b.collision.face_primitives(j);
-                if (!grown(b.face_boxes[f], margin).contains(x))
-                    continue;
-                const PointTriangleClosest closest
-                    = point_triangle_closest(x, b.surface.row(faces_b(f, 0)).transpose(),
-                        b.surface.row(faces_b(f, 1)).transpose(),
-                        b.surface.row(faces_b(f, 2)).transpose());
-                const Vec3 n = face_normal(b.surface, faces_b, f);
-                const double distance = std::sqrt(closest.squared_distance);
-                const double signed_distance
-                    = n.dot(x - closest.point) < 0.0 ? -distance : distance;
-                if (signed_distance >= margin)
-                    continue;
-                auto [it, inserted] = best[body_a].try_emplace(
-                    node, Best { signed_distance, closest.point, n, body_b });
-                if (!inserted && std::abs(signed_distance) < std::abs(it->second.distance))
-                    it->second = Best { signed_distance, closest.point, n, body_b };
-            }
-        }
-    };
-    for (const ItemPair& pair : colliding) {
-        const BroadPhaseItem& ia = m_items[pair.first];
-        const BroadPhaseItem& ib = m_items[pair.second];
-        const Body& a = m_bodies[ia.body];
-        const Body& b = m_bodies[ib.body];
-        const MatX3i& faces_a = a.surface_view.faces();
-        const MatX3i& faces_b = b.surface_view.faces();
-        // Triangle-triangle tests among the enclosed triangles (box-filtered).
-        const VecXi& ia_ptr = a.collision.face_primitives_indptr;
-        const VecXi& ib_ptr = b.collision.face_primitives_indptr;
-        for (int j = ia_ptr(ia.primitive); j < ia_ptr(ia.primitive + 1); ++j) {
-            const int fa = a.collision.face_primitives(j);
-            const Box3& box_a = a.face_boxes[fa];
-            for (int l = ib_ptr(ib.primitive); l < ib_ptr(ib.primitive + 1); ++l) {
-                const int fb = b.collision.face_primitives(l);
-                if (ia.body == ib.body) {
-                    bool shared = false;
-                    for (int u = 0; u < 3; ++u)
-                        for (int v = 0; v < 3; ++v)
-                            shared |= faces_a(fa, u) == faces_b(fb, v);
-                    if (shared)
-                        continue;
-                }
-                if (!box_a.intersects(b.face_boxes[fb]))
-                    continue;
-                ++m_report.triangle_tests;
-                if (triangles_intersect(a.surface.row(faces_a(fa, 0)).transpose(),
-                        a.surface.row(faces_a(fa, 1)).transpose(),
-                        a.surface.row(faces_a(fa, 2)).transpose(),
-                        b.surface.row(faces_b(fb, 0)).transpose(),
-                        b.surface.row(faces_b(fb, 1)).transpose(),
-                        b.surface.row(faces_b(fb, 2)).transpose()))
-                    ++m_report.intersecting_triangles;
-            }
-        }
-        nodes_against(ia.body, ia.primitive, ib.body, ib.primitive);
-        nodes_against(ib.body, ib.primitive, ia.body, ia.primitive);
-    }
-    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-        std::vector<std::pair<int, Best>> sorted(best[b].begin(), best[b].end());
-        std::sort(sorted.begin(), sorted.end(),
-            [](const auto& x, const auto& y) { return x.first < y.first; });
-        const Mat3& r = states[b].rotation;
-        for (const auto& [node, hit] : sorted) {
-            const bool other_dynamic = !states[hit.other_body].is_static;
-            // The separating plane: through the midpoint when both sides move, else on the
-            // other surface; its normal is the triangle's outward normal.
-            const Vec3 point
-                = other_dynamic ? Vec3(hit.closest + 0.5 * hit.distance * hit.normal) : hit.closest;
-            NodeContact contact;
-            contact.node = node;
-            contact.plane.point = r.transpose() * (point - states[b].translation);
-            contact.plane.normal = r.transpose() * hit.normal;
-            contact.plane.friction = m_settings.friction;
-            m_contacts[b].push_back(contact);
-            m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
-        }
-        m_report.contacts += static_cast<int>(sorted.size());
-    }
+    narrow_phase(states, margin);
     m_report.triangle_seconds = timer.seconds();
+
+    // 5. Contacts.
+    timer.restart();
+    respond(states);
+    m_report.response_seconds = timer.seconds();
     return m_contacts;
+}
+
+void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states, double margin)
+{
+    m_views.resize(m_bodies.size());
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        const Body& body = m_bodies[b];
+        NarrowPhaseBody& view = m_views[b];
+        view.surface = &body.surface;
+        view.faces = &body.surface_view.faces();
+        view.face_boxes = &body.face_boxes;
+        view.face_normals = &body.face_normals;
+        view.nodes = &body.nodes;
+        view.face_indptr = &body.collision.face_primitives_indptr;
+        view.face_list = &body.collision.face_primitives;
+        view.node_indptr = &body.node_indptr;
+        view.node_list = &body.node_list;
+        view.is_static = states[b].is_static;
+    }
+    for (NarrowPhaseScratch& scratch : m_scratch)
+        scratch.clear();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_colliding.size(), 1),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            NarrowPhaseScratch& scratch = m_scratch.local();
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                const BroadPhaseItem& a = m_items[static_cast<std::size_t>(m_colliding[k].first)];
+                const BroadPhaseItem& b = m_items[static_cast<std::size_t>(m_colliding[k].second)];
+                narrow_phase_pair(m_views[static_cast<std::size_t>(a.body)], a.body, a.primitive,
+                    m_views[static_cast<std::size_t>(b.body)], b.body, b.primitive,
+                    a.box.intersection(b.box), margin, static_cast<int>(k), scratch);
+            }
+        });
+    // Merge: the union of the threads' pairs, sorted, whatever thread found which.
+    for (const NarrowPhaseScratch& scratch : m_scratch) {
+        m_report.triangle_tests += scratch.triangle_tests;
+        m_intersecting.insert(
+            m_intersecting.end(), scratch.intersecting.begin(), scratch.intersecting.end());
+    }
+    std::sort(m_intersecting.begin(), m_intersecting.end());
+    m_intersecting.erase(
+        std::unique(m_intersecting.begin(), m_intersecting.end()), m_intersecting.end());
+    m_report.intersecting_triangles = static_cast<int>(m_intersecting.size());
+}
+
+void CollisionWorld::respond(const std::vector<CollisionBodyState>& states)
+{
+    // Per node, the candidate nearest its triangle; ties go to the lowest primitive pair. The
+    // sort key is a total order on the candidates, so the merge ignores the thread split.
+    m_candidates.clear();
+    for (const NarrowPhaseScratch& scratch : m_scratch)
+        m_candidates.insert(
+            m_candidates.end(), scratch.candidates.begin(), scratch.candidates.end());
+    std::sort(m_candidates.begin(), m_candidates.end(),
+        [](const NodeCandidate& x, const NodeCandidate& y) {
+            if (x.body != y.body)
+                return x.body < y.body;
+            if (x.node != y.node)
+                return x.node < y.node;
+            if (std::abs(x.distance) != std::abs(y.distance))
+                return std::abs(x.distance) < std::abs(y.distance);
+            return x.pair < y.pair;
+        });
+    for (std::size_t k = 0; k < m_candidates.size(); ++k) {
+        const NodeCandidate& hit = m_candidates[k];
+        if (k > 0 && m_candidates[k - 1].body == hit.body && m_candidates[k - 1].node == hit.node)
+            continue;
+        const CollisionBodyState& state = states[static_cast<std::size_t>(hit.body)];
+        const bool other_dynamic = !states[static_cast<std::size_t>(hit.other_body)].is_static;
+        // The separating plane: through the midpoint when both sides move, else on the other
+        // surface; its normal is the triangle's outward normal.
+        const Vec3 point
+            = other_dynamic ? Vec3(hit.closest + 0.5 * hit.distance * hit.normal) : hit.closest;
+        NodeContact contact;
+        contact.node = hit.node;
+        contact.plane.point = state.rotation.transpose() * (point - state.translation);
+        contact.plane.normal = state.rotation.transpose() * hit.normal;
+        contact.plane.friction = m_settings.friction;
+        m_contacts[static_cast<std::size_t>(hit.body)].push_back(contact);
+        m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
+        ++m_report.contacts;
+    }
 }
 
 } // namespace mat

@@ -7,22 +7,30 @@
 //   2. broad phase: a spatial hash over the primitives' boxes grown by the contact margin
 //      (object-object pairs, and self pairs of primitives that share no medial sphere);
 //   3. exact primitive tests on those pairs (radii grown by half the margin each);
-//   4. narrow phase, only among the surface triangles enclosed by colliding primitives:
-//      exact triangle-triangle intersection (counted, and the deepest vertex measured) and,
-//      for the response, the boundary nodes of one primitive against the triangles of the
-//      other (closest point within the margin, or behind the triangle);
+//   4. narrow phase (narrow_phase.hpp), per colliding primitive pair and only among the
+//      surface triangles and boundary nodes of the two primitives inside the pair's overlap
+//      region: exact triangle-triangle intersection (each intersecting pair recorded once) and,
+//      for the response, the nodes of one primitive against the triangles of the other
+//      (closest point within the margin, or behind the triangle);
 //   5. response: one contact per node with a separating plane through the midpoint between
 //      the node and its closest point (both bodies dynamic: each side is kept on its half, so
 //      neither is pushed twice) or through the closest point (a static body), solved by the
 //      solver's exact Signorini-Coulomb contact solve inside every PD iteration.
+// Phases 1, 3 and 4 run in parallel (TBB) over flat arrays kept as members, so a step allocates
+// nothing once warm; per-thread results are merged in a fixed order (sorted by a total order),
+// so the result does not depend on the thread count.
 // Contact acts on tet-mesh boundary nodes (which Mesh_3 puts on the surface); friction is
 // relative to the world, not to the other body's motion.
 
 #include <vector>
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include "common/bake_data.hpp"
 #include "common/eigen_types.hpp"
 #include "runtime/collision/medial_bounds.hpp"
+#include "runtime/collision/narrow_phase.hpp"
+#include "runtime/collision/primitive_pair.hpp"
 #include "runtime/collision/spatial_hash.hpp"
 #include "runtime/output/surface_view.hpp"
 #include "runtime/pd/contact.hpp"
@@ -35,18 +43,24 @@ struct CollisionSettings {
     RadiusUpdate bounds = RadiusUpdate::bound;
     double margin = 0.01; ///< contact candidate distance, relative to the largest body diagonal
     double friction = 0.3; ///< Coulomb coefficient between bodies
+    /// Exact primitive test on every pair instead of the spatial hash (the reference code's
+    /// broad phase; for benchmarks).
+    bool all_pairs = false;
 };
 
 /// What the last detect() found and how long each phase took.
 struct CollisionReport {
     int primitive_candidates = 0; ///< broad-phase pairs
     int primitive_pairs = 0; ///< pairs that pass the exact primitive test
-    int triangle_tests = 0; ///< triangle pairs tested
-    int intersecting_triangles = 0; ///< triangle pairs that intersect
+    long triangle_tests = 0; ///< triangle pairs tested (a pair may be tested in several)
+    int intersecting_triangles = 0; ///< distinct triangle pairs that intersect
     int contacts = 0; ///< node contacts handed to the solvers
     double max_penetration = 0.0; ///< deepest node behind the other surface (m)
-    double bounds_seconds = 0.0, hash_seconds = 0.0, primitive_seconds = 0.0,
-           triangle_seconds = 0.0;
+    double bounds_seconds = 0.0; ///< bounds update, surfaces and boxes in world coordinates
+    double hash_seconds = 0.0; ///< broad phase
+    double primitive_seconds = 0.0; ///< exact primitive tests
+    double triangle_seconds = 0.0; ///< narrow phase: triangle-triangle and node-triangle tests
+    double response_seconds = 0.0; ///< merge into one contact per node with its plane
 };
 
 /// One body as the collision world sees it, in world coordinates.
@@ -73,11 +87,22 @@ public:
         const std::vector<CollisionBodyState>& states);
 
     const CollisionReport& last_report() const { return m_report; }
+    /// The distinct intersecting triangle pairs of the last detect(), sorted.
+    const std::vector<FacePair>& intersecting_pairs() const { return m_intersecting; }
+    /// Body b's surface in world coordinates at the last detect()  #Vs x 3, and its faces #F x 3.
+    const MatX3& world_surface(Index b) const { return m_bodies[b].surface; }
+    const MatX3i& faces(Index b) const { return m_bodies[b].surface_view.faces(); }
     const CollisionSettings& settings() const { return m_settings; }
     Index num_bodies() const { return static_cast<Index>(m_bodies.size()); }
 
 private:
     struct Body {
+        explicit Body(const BakeData& bake)
+            : bounds(bake)
+            , collision(bake.collision)
+            , surface_view(bake)
+        {
+        }
         MedialBounds bounds;
         MedialCollisionData collision;
         SurfaceView surface_view; ///< the surface embedded in the tets
@@ -91,15 +116,27 @@ private:
         // Per-step workspace, world coordinates.
         MatX3 surface; ///< #Vs x 3
         std::vector<Box3> face_boxes; ///< #F, of the triangles at `surface`
+        MatX3 face_normals; ///< #F x 3
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
     };
 
     CollisionSettings m_settings;
     std::vector<Body> m_bodies;
+    void update_body(std::size_t b, const CollisionBodyState& state, double margin);
+    void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
+    void respond(const std::vector<CollisionBodyState>& states);
+
     SpatialHash m_hash;
-    std::vector<BroadPhaseItem> m_items;
-    std::vector<ItemPair> m_pairs;
+    std::vector<BroadPhaseItem> m_items; ///< one per primitive of every body
+    std::vector<Primitive> m_primitives; ///< per item, world coordinates, radii + margin / 2
+    std::vector<ItemPair> m_pairs; ///< broad-phase candidates
+    std::vector<char> m_hit; ///< per candidate: the primitives intersect
+    std::vector<ItemPair> m_colliding;
+    std::vector<NarrowPhaseBody> m_views; ///< per body
+    tbb::enumerable_thread_specific<NarrowPhaseScratch> m_scratch;
+    std::vector<NodeCandidate> m_candidates; ///< all threads' candidates, merged
+    std::vector<FacePair> m_intersecting;
     std::vector<std::vector<NodeContact>> m_contacts;
     CollisionReport m_report;
 };

@@ -205,9 +205,11 @@ void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
     if (a.state == 0)
         return;
     const std::size_t first = out.size();
+    const bool self = m_settings.self_pairs;
     const auto consider = [&](int j) {
         const Slot& b = m_slots[static_cast<std::size_t>(j)];
-        if (boxes_overlap(a.box, b.box) && tags_allowed(a.body, a.spheres, b.body, b.spheres))
+        if (boxes_overlap(a.box, b.box) && (self || a.body != b.body)
+            && tags_allowed(a.body, a.spheres, b.body, b.spheres))
             out.emplace_back(i, j);
     };
 
@@ -233,7 +235,7 @@ void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
                     // One branch for both tests (each alone is a coin toss for the predictor).
                     const bool canonical = (std::max(a.lo[0], it->lo[0]) == x)
                         & (std::max(a.lo[1], it->lo[1]) == y) & (std::max(a.lo[2], it->lo[2]) == z);
-                    if (canonical & boxes_overlap(a.box, it->box)
+                    if (canonical & boxes_overlap(a.box, it->box) & (self | (a.body != it->body))
                         && tags_allowed(a.body, a.spheres, it->body, it->spheres))
                         out.emplace_back(i, it->item);
                 }

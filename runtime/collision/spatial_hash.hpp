@@ -53,6 +53,8 @@ struct SpatialHashSettings {
     /// 2-core machine, TBB did not pay off at 640 to 10k items (the result is the same either
     /// way), hence the high default.
     int parallel_threshold = 16384;
+    /// Whether pairs of items of the same body are reported (self-collision candidates).
+    bool self_pairs = true;
 };
 
 class SpatialHash {

@@ -5,12 +5,10 @@
 // compare on a busy machine), the mean radius increment over the mean radius, how many surface
 // vertices fall outside their primitive, and "(allocates)" if an update called operator new.
 
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <new>
 #include <random>
 #include <string>
 
@@ -20,27 +18,8 @@
 #include "common/medial_primitives.hpp"
 #include "formats/bake_io.hpp"
 #include "runtime/collision/medial_bounds.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "tests/support/medial_bounds_checks.hpp"
-
-namespace {
-std::atomic<long> g_allocations { 0 };
-}
-
-void* operator new(std::size_t size)
-{
-    ++g_allocations;
-    if (void* p = std::malloc(size == 0 ? 1 : size))
-        return p;
-    throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept
-{
-    std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept
-{
-    std::free(p);
-}
 
 namespace {
 
@@ -130,9 +109,9 @@ int main(int argc, char** argv)
                 tbb::task_arena arena(1);
                 double one = 0.0;
                 arena.execute([&] { one = cpu_ns_per_update(updates, update); });
-                const long before = g_allocations.load();
+                const long before = test::allocation_count();
                 update();
-                const long allocations = g_allocations.load() - before;
+                const long allocations = test::allocation_count() - before;
                 std::printf("  %-28s %13.0f %13.0f %14.4g %9d%s\n", name, all, one,
                     bounds.increments().mean() / mean_radius,
                     count_outside(bounds, bake, positions, 1e-12),

@@ -98,6 +98,28 @@ namespace {
         }
     }
 
+    TEST(SpatialHash, WithoutSelfPairsOnlyPairsOfDifferentBodies)
+    {
+        for (unsigned seed = 1; seed <= 3; ++seed) {
+            RandomBoxOptions o;
+            o.seed = seed;
+            o.spread = 3.0;
+            o.huge = static_cast<int>(seed % 2); // oversize items too
+            const std::vector<BroadPhaseItem> items = random_items(o);
+            std::vector<ItemPair> expected;
+            for (const ItemPair& pair : all_pairs_boxes(items))
+                if (items[static_cast<std::size_t>(pair.first)].body
+                    != items[static_cast<std::size_t>(pair.second)].body)
+                    expected.push_back(pair);
+            SpatialHashSettings settings;
+            settings.self_pairs = false;
+            const std::vector<ItemPair> pairs = hash_pairs(items, settings);
+            EXPECT_GT(expected.size(), 100u) << "seed " << seed;
+            EXPECT_LT(expected.size(), all_pairs_boxes(items).size()) << "seed " << seed;
+            EXPECT_EQ(pairs, expected) << "seed " << seed;
+        }
+    }
+
     TEST(SpatialHash, ManyCellSizesAndLimits)
     {
         RandomBoxOptions o;
