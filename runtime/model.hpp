@@ -89,6 +89,11 @@ public:
 
     const SparseRowMatrix& basis() const { return m_basis; } ///< B  n x k
     const SparseRowMatrix& basis_transpose() const { return m_basis_transpose; } ///< B^T  k x n
+    /// The bake's handles (empty when it has none): centers  m x 3, scales  m, column offsets
+    /// m + 1 (handle j owns basis columns [off_j, off_j+1)).
+    const MatX3& handle_centers() const { return m_handle_centers; }
+    const VecX& handle_scales() const { return m_handle_scales; }
+    const VecXi& handle_column_offsets() const { return m_handle_column_offsets; }
     /// S = B^T (L_w + M/h^2 + P) B  k x k, factored (dense LLT).
     const Eigen::LLT<MatX>& reduced_system() const { return m_reduced_system; }
     /// A = L_w + M/h^2 + P  n x n, symmetric, stored full (the full solver factors it).
@@ -114,6 +119,9 @@ private:
     MatX3 m_stiffness_rest;
     SparseRowMatrix m_basis;
     SparseRowMatrix m_basis_transpose;
+    MatX3 m_handle_centers;
+    VecX m_handle_scales;
+    VecXi m_handle_column_offsets;
     Eigen::LLT<MatX> m_reduced_system;
     Eigen::SparseMatrix<double> m_full_system;
 };

@@ -8,6 +8,7 @@
 
 namespace mat {
 
+
 CouplingCache::CouplingCache(Index num_nodes, Index rows)
     : m_slot(num_nodes, -1)
     , m_rows(rows)
@@ -62,6 +63,7 @@ Eigen::Ref<const VecX> CouplingCache::column(int node) const
 
 ReducedGlobalStep::ReducedGlobalStep(const Model& model)
     : m_model(model)
+    , m_products(model)
     , m_rest_system(model.num_nodes(), 3)
     , m_q(model.num_columns(), 3)
     , m_q_rows(model.num_columns(), 3)
@@ -91,36 +93,16 @@ void ReducedGlobalStep::add_constant_terms(Eigen::Ref<MatX3> base) const
 void ReducedGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
 {
     Timer timer;
-    const Index k = m_model.num_columns();
-    const SparseRowMatrix& basis_t = m_model.basis_transpose();
-    // B^T y, one row of B^T (a basis column) per task: O(nnz(B)), fixed summation order.
-    const int* indptr = basis_t.outerIndexPtr();
-    const int* indices = basis_t.innerIndexPtr();
-    const double* values = basis_t.valuePtr();
-    const double* y = rhs.data(); // row-major n x 3 (checked)
     MAT_CHECK(rhs.outerStride() == 3, "reduced global step: rhs must be contiguous rows");
-    tbb::parallel_for(
-        tbb::blocked_range<Index>(0, k, 16), [&](const tbb::blocked_range<Index>& range) {
-            for (Index a = range.begin(); a != range.end(); ++a) {
-                double acc0 = 0.0, acc1 = 0.0, acc2 = 0.0;
-                for (int j = indptr[a]; j < indptr[a + 1]; ++j) {
-                    const double w = values[j];
-                    const double* yi = y + 3 * indices[j];
-                    acc0 += w * yi[0];
-                    acc1 += w * yi[1];
-                    acc2 += w * yi[2];
-                }
-                m_q(a, 0) = acc0;
-                m_q(a, 1) = acc1;
-                m_q(a, 2) = acc2;
-            }
-        });
+    m_products.transpose_times(rhs.data(), m_q_rows.data());
+    m_q = m_q_rows; // columns: one right-hand side each
     timings.rhs += timer.seconds();
     timer.restart();
-    for (int c = 0; c < 3; ++c) {
+    // The three right-hand sides are independent: one task each.
+    tbb::parallel_for(0, 3, [&](int c) {
         auto column = m_q.col(c);
         m_model.reduced_system().solveInPlace(column);
-    }
+    });
     timings.solve += timer.seconds();
 }
 
@@ -164,29 +146,7 @@ void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
     Timer timer;
     MAT_CHECK(out.outerStride() == 3, "reduced global step: positions must be contiguous rows");
     m_q_rows = m_q; // row-major copy: a node reads whole rows of q
-    const double* rest = m_model.rest_positions().data();
-    const double* q = m_q_rows.data();
-    const SparseRowMatrix& basis = m_model.basis();
-    const int* indptr = basis.outerIndexPtr();
-    const int* indices = basis.innerIndexPtr();
-    const double* values = basis.valuePtr();
-    double* x = out.data();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, m_model.num_nodes(), 256),
-        [&](const tbb::blocked_range<Index>& range) {
-            for (Index i = range.begin(); i != range.end(); ++i) {
-                double acc0 = rest[3 * i], acc1 = rest[3 * i + 1], acc2 = rest[3 * i + 2];
-                for (int j = indptr[i]; j < indptr[i + 1]; ++j) {
-                    const double w = values[j];
-                    const double* qa = q + 3 * indices[j];
-                    acc0 += w * qa[0];
-                    acc1 += w * qa[1];
-                    acc2 += w * qa[2];
-                }
-                x[3 * i] = acc0;
-                x[3 * i + 1] = acc1;
-                x[3 * i + 2] = acc2;
-            }
-        });
+    m_products.reconstruct(m_q_rows.data(), out.data());
     timings.reconstruct += timer.seconds();
 }
 

@@ -11,6 +11,7 @@
 #include "common/eigen_types.hpp"
 #include "common/sparse_cholesky.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/basis_products.hpp"
 
 namespace mat {
 
@@ -88,6 +89,7 @@ public:
 
 private:
     const Model& m_model;
+    BasisProducts m_products;
     MatX3 m_rest_system; ///< A X  n x 3 (constant)
     MatX m_q; ///< k x 3
     MatX3 m_q_rows; ///< k x 3 row-major copy of m_q for the reconstruction

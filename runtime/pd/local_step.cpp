@@ -15,8 +15,10 @@
 namespace mat {
 
 namespace {
-    /// Block colors fit one 64-bit mask per node.
-    constexpr int max_block_colors = 64;
+    /// Chunks: about this many blocks each, and at most this many (enough for load balance on
+    /// a few threads; each chunk boundary duplicates the slots of the nodes it cuts).
+    constexpr Index blocks_per_chunk = 48;
+    constexpr Index max_chunks = 64;
 } // namespace
 
 Mat3 deformation_gradient(const Eigen::Ref<const MatX3>& positions,
@@ -109,6 +111,7 @@ LocalStep::LocalStep(const Model& model)
 {
     constexpr int lanes = projection_lanes;
     const Index t = model.num_tets();
+    const Index n = model.num_nodes();
     const Index num_blocks = (t + lanes - 1) / lanes;
     const MatX4i& tets = model.tets();
     const MatX& dm_inverse = model.dm_inverse();
@@ -129,51 +132,74 @@ LocalStep::LocalStep(const Model& model)
         }
     }
 
-    // Greedy coloring in block order: a block takes the lowest color none of its nodes has seen.
-    // Colors are bits of a 64-bit mask per node; a block that finds all 64 taken goes to a last
-    // color whose blocks run one after the other.
-    std::vector<std::uint64_t> seen(model.num_nodes(), 0);
-    std::vector<int> color(num_blocks);
-    int used = 0;
-    for (Index b = 0; b < num_blocks; ++b) {
-        const Block& block = m_blocks[b];
-        std::uint64_t taken = 0;
-        for (int c = 0; c < 4; ++c)
-            for (int l = 0; l < block.count; ++l)
-                taken |= seen[block.nodes[c][l]];
-        int k = 0;
-        while (k < max_block_colors && (taken >> k) & 1u)
-            ++k;
-        color[b] = k; // k == max_block_colors: the sequential color
-        if (k < max_block_colors)
-            for (int c = 0; c < 4; ++c)
-                for (int l = 0; l < block.count; ++l)
-                    seen[block.nodes[c][l]] |= std::uint64_t(1) << k;
-        used = std::max(used, k + 1);
+    // Chunks: runs of consecutive blocks, a fixed number for the model (never for the thread
+    // count). A chunk gives each node it touches a slot of its own, numbered in first-touch
+    // order inside the chunk's slot range; a node's slots are listed in chunk order.
+    const Index num_chunks = std::clamp<Index>(num_blocks / blocks_per_chunk, 1, max_chunks);
+    m_chunk_blocks.assign(num_chunks + 1, 0);
+    for (Index c = 0; c <= num_chunks; ++c)
+        m_chunk_blocks[c] = static_cast<int>(c * num_blocks / num_chunks);
+    m_chunk_slots.assign(num_chunks + 1, 0);
+    std::vector<int> slot_of(n, -1); // node -> slot in the current chunk
+    std::vector<int> touched;
+    std::vector<std::pair<int, int>> node_slot; // (node, slot), slots ascending
+    int next = 0;
+    for (Index c = 0; c < num_chunks; ++c) {
+        touched.clear();
+        for (int b = m_chunk_blocks[c]; b < m_chunk_blocks[c + 1]; ++b) {
+            Block& block = m_blocks[b];
+            for (int l = 0; l < lanes; ++l)
+                for (int k = 0; k < 4; ++k) {
+                    const int node = block.nodes[k][l];
+                    if (slot_of[node] < 0) {
+                        slot_of[node] = next++;
+                        touched.push_back(node);
+                        node_slot.emplace_back(node, slot_of[node]);
+                    }
+                    block.slots[k][l] = slot_of[node];
+                }
+        }
+        for (const int node : touched)
+            slot_of[node] = -1;
+        m_chunk_slots[c + 1] = next;
     }
-    m_color_offsets.assign(used + 1, 0);
-    for (Index b = 0; b < num_blocks; ++b)
-        ++m_color_offsets[color[b] + 1];
-    for (int k = 0; k < used; ++k)
-        m_color_offsets[k + 1] += m_color_offsets[k];
-    // Store the blocks in color order: a color is then a contiguous range streamed from memory
-    // in order (prefetch-friendly), not blocks scattered across the array.
-    std::vector<int> fill(m_color_offsets.begin(), m_color_offsets.end() - 1);
-    std::vector<Block> ordered(num_blocks);
-    for (Index b = 0; b < num_blocks; ++b)
-        ordered[fill[color[b]]++] = m_blocks[b];
-    m_blocks.swap(ordered);
+    // Node -> slots (CSR), slots in chunk order: a stable sort by node keeps them ascending.
+    std::stable_sort(node_slot.begin(), node_slot.end(),
+        [](const auto& a, const auto& b) { return a.first < b.first; });
+    m_node_slot_offsets.assign(n + 1, 0);
+    m_node_slots.resize(node_slot.size());
+    for (std::size_t i = 0; i < node_slot.size(); ++i) {
+        ++m_node_slot_offsets[node_slot[i].first + 1];
+        m_node_slots[i] = node_slot[i].second;
+    }
+    for (Index i = 0; i < n; ++i)
+        m_node_slot_offsets[i + 1] += m_node_slot_offsets[i];
+    m_slot_sums.assign(3 * static_cast<std::size_t>(next), 0.0);
 }
 
 void LocalStep::compute(
     const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs)
 {
     rhs.setZero();
-    accumulate(model, positions, rhs);
+    run(model, positions, nullptr, rhs);
 }
 
 void LocalStep::accumulate(
     const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs)
+{
+    run(model, positions, nullptr, rhs);
+}
+
+void LocalStep::assemble(const Model& model, const Eigen::Ref<const MatX3>& positions,
+    const Eigen::Ref<const MatX3>& base, Eigen::Ref<MatX3> rhs)
+{
+    MAT_CHECK(base.rows() == model.num_nodes() && base.outerStride() == 3,
+        "local step: base must be {} contiguous rows, has {}", model.num_nodes(), base.rows());
+    run(model, positions, base.data(), rhs);
+}
+
+void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions,
+    const double* base, Eigen::Ref<MatX3> rhs)
 {
     const Index n = model.num_nodes();
     MAT_CHECK(positions.rows() == n && rhs.rows() == n,
@@ -193,6 +219,7 @@ void LocalStep::accumulate(
     constexpr int lanes = projection_lanes;
     const double* x = positions.data(); // row-major n x 3
     double* out = rhs.data();
+    double* slot_sums = m_slot_sums.data();
 
     // One block: gather F = Ds Dm^-1, project, scatter vol_e G_e^T target^T into rhs. With
     // G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3), corner c + 1 gets row c of
@@ -229,9 +256,9 @@ void LocalStep::accumulate(
                             + block.dm_inverse[3 * r + 1][l] * target.m[3 * c + 1][l]
                             + block.dm_inverse[3 * r + 2][l] * target.m[3 * c + 2][l]);
         for (int l = 0; l < block.count; ++l) {
-            double* o0 = out + 3 * block.nodes[0][l];
+            double* o0 = slot_sums + 3 * block.slots[0][l];
             for (int r = 0; r < 3; ++r) {
-                double* o = out + 3 * block.nodes[r + 1][l];
+                double* o = slot_sums + 3 * block.slots[r + 1][l];
                 for (int c = 0; c < 3; ++c) {
                     o[c] += f.m[3 * r + c][l];
                     o0[c] -= f.m[3 * r + c][l];
@@ -240,22 +267,37 @@ void LocalStep::accumulate(
         }
     };
 
-    const int num_colors = static_cast<int>(m_color_offsets.size()) - 1;
-    for (int k = 0; k < num_colors; ++k) {
-        const int begin = m_color_offsets[k], end = m_color_offsets[k + 1];
-        if (k == max_block_colors) { // the sequential color (see the constructor)
+    // Each chunk sums its blocks into its own slots (one thread per chunk, blocks in order),
+    // then each node adds its slots in chunk order: the same sums for any thread count.
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, num_chunks(), 1), [&](const tbb::blocked_range<int>& range) {
             MatBlock f, target;
-            for (int b = begin; b < end; ++b)
-                run_block(b, f, target);
-            continue;
-        }
-        tbb::parallel_for(
-            tbb::blocked_range<int>(begin, end, 32), [&](const tbb::blocked_range<int>& range) {
-                MatBlock f, target;
-                for (int b = range.begin(); b != range.end(); ++b)
+            for (int c = range.begin(); c != range.end(); ++c) {
+                std::fill(m_slot_sums.begin() + 3 * static_cast<std::size_t>(m_chunk_slots[c]),
+                    m_slot_sums.begin() + 3 * static_cast<std::size_t>(m_chunk_slots[c + 1]), 0.0);
+                for (int b = m_chunk_blocks[c]; b < m_chunk_blocks[c + 1]; ++b)
                     run_block(b, f, target);
-            });
-    }
+            }
+        });
+    const double* sums = m_slot_sums.data();
+    const int* offsets = m_node_slot_offsets.data();
+    const int* slots = m_node_slots.data();
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, n, 1024), [&](const tbb::blocked_range<Index>& range) {
+            for (Index i = range.begin(); i != range.end(); ++i) {
+                double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+                for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
+                    const double* v = sums + 3 * slots[j];
+                    s0 += v[0];
+                    s1 += v[1];
+                    s2 += v[2];
+                }
+                const double* in = base != nullptr ? base + 3 * i : out + 3 * i;
+                out[3 * i] = in[0] + s0;
+                out[3 * i + 1] = in[1] + s1;
+                out[3 * i + 2] = in[2] + s2;
+            }
+        });
 }
 
 } // namespace mat

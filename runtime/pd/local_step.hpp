@@ -38,11 +38,11 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
 /// Preallocated storage for the local step of one model: a step allocates nothing.
 ///
 /// Layout: tets in blocks of projection_lanes consecutive (Morton-ordered) tets, each block with
-/// its node indices, Dm^-1 and rest volumes in structure-of-arrays form. The blocks are colored
-/// so that two blocks of one color share no node: the blocks of a color run in parallel and add
-/// their contributions straight into the right-hand side, the colors one after the other. The
-/// order of the additions into a node is fixed by the coloring, so the result does not depend on
-/// the thread count.
+/// its node indices, Dm^-1 and rest volumes in structure-of-arrays form. Consecutive blocks form
+/// chunks (their number depends on the model only). A chunk adds its tets' contributions into
+/// slots of its own, one per node it touches, and the chunks run in parallel; each node then sums
+/// its slots in chunk order. The order of every addition is fixed by the model, so the result
+/// does not depend on the thread count, and one step has two parallel loops, not one per color.
 class LocalStep {
 public:
     explicit LocalStep(const Model& model);
@@ -56,20 +56,32 @@ public:
     /// The same sum added to `rhs` (n x 3) instead of replacing it.
     void accumulate(
         const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
+    /// rhs = base + the same sum (`base`, `rhs`  n x 3, distinct): saves a copy per iteration.
+    void assemble(const Model& model, const Eigen::Ref<const MatX3>& positions,
+        const Eigen::Ref<const MatX3>& base, Eigen::Ref<MatX3> rhs);
 
-    /// Number of block colors (for the benchmark's report).
-    int num_colors() const { return static_cast<int>(m_color_offsets.size()) - 1; }
+    /// Number of chunks (for the benchmark's report).
+    int num_chunks() const { return static_cast<int>(m_chunk_blocks.size()) - 1; }
 
 private:
     struct alignas(64) Block {
         double dm_inverse[9][projection_lanes]; ///< Dm^-1 (r, c) at [3 r + c]
         double volume[projection_lanes]; ///< rest volume, 0 on padding lanes
         int nodes[4][projection_lanes]; ///< corner nodes; padding lanes repeat lane 0
+        int slots[4][projection_lanes]; ///< the corners' slots in the block's chunk
         int count = 0; ///< real tets in the block
     };
+    /// rhs = (base or rhs) + the sum; `base` null means rhs itself.
+    void run(const Model& model, const Eigen::Ref<const MatX3>& positions, const double* base,
+        Eigen::Ref<MatX3> rhs);
+
     Index m_num_tets = 0;
-    std::vector<Block> m_blocks; ///< in color order
-    std::vector<int> m_color_offsets; ///< #colors + 1: color k is blocks [off_k, off_k+1)
+    std::vector<Block> m_blocks; ///< in tet order
+    std::vector<int> m_chunk_blocks; ///< #chunks + 1: chunk c is blocks [c_c, c_c+1)
+    std::vector<int> m_chunk_slots; ///< #chunks + 1: chunk c owns slots [s_c, s_c+1)
+    std::vector<int> m_node_slot_offsets; ///< n + 1: node i's slots (CSR)
+    std::vector<int> m_node_slots; ///< slots of each node, in chunk order
+    std::vector<double> m_slot_sums; ///< 3 per slot
     /// Per block: V of the last projection (the warm start).
     std::vector<RotationBlock> m_warm;
 };

@@ -21,6 +21,8 @@ namespace {
     constexpr float float_tolerance = 1e-5f;
     constexpr int max_double_sweeps = 2;
     constexpr double double_tolerance = 1e-13;
+    /// A sweep uses small_rotation when every |a_pq| <= this times |a_pp - a_qq|.
+    constexpr double small_angle_ratio = 1e-4;
     constexpr int volume_newton_steps = 8; ///< at most; fewer once every lane has converged
     constexpr double volume_tolerance_before_last_step = 1e-8;
 
@@ -198,6 +200,53 @@ namespace {
         return all_below(excess, T(0));
     }
 
+    /// The Jacobi rotation of polish_rotation once A is nearly diagonal (every lane's
+    /// |a_pq| <= small_angle_ratio |a_pp - a_qq|, see small_angles): sin = t = a_pq / (a_pp -
+    /// a_qq), cos = 1 - t^2 / 2 (cos^2 + sin^2 = 1 + t^4 / 4: orthogonal to double precision),
+    /// one division and no square root.
+    template <int p, int q, int k> inline void small_rotation(DoubleStage& d)
+    {
+        for (int l = 0; l < W; ++l) {
+            const double app = d.a[p][p][l], aqq = d.a[q][q][l], apq = d.MAT_SYM(a, p, q)[l];
+            const double gap = app - aqq;
+            const double s = gap != 0.0 ? apq / gap : 0.0;
+            const double c = 1.0 - 0.5 * s * s;
+            const double cc = c * c, ss = s * s, cs = c * s;
+            const double apk = d.MAT_SYM(a, p, k)[l], aqk = d.MAT_SYM(a, q, k)[l];
+            d.a[p][p][l] = cc * app + 2.0 * cs * apq + ss * aqq;
+            d.a[q][q][l] = ss * app - 2.0 * cs * apq + cc * aqq;
+            d.MAT_SYM(a, p, q)[l] = (cc - ss) * apq + cs * (aqq - app);
+            d.MAT_SYM(a, p, k)[l] = c * apk + s * aqk;
+            d.MAT_SYM(a, q, k)[l] = c * aqk - s * apk;
+#pragma GCC unroll 3
+            for (int r = 0; r < 3; ++r) {
+                const double vp = d.v[r][p][l], vq = d.v[r][q][l];
+                d.v[r][p][l] = c * vp + s * vq;
+                d.v[r][q][l] = c * vq - s * vp;
+                const double bp = d.b[r][p][l], bq = d.b[r][q][l];
+                d.b[r][p][l] = c * bp + s * bq;
+                d.b[r][q][l] = c * bq - s * bp;
+            }
+        }
+    }
+
+    /// True when every lane's off-diagonal entries are below small_angle_ratio times the gap
+    /// of their diagonal entries: the rotations that remain are small enough for small_rotation.
+    inline bool small_angles(const DoubleStage& d)
+    {
+        alignas(64) double excess[W];
+        for (int l = 0; l < W; ++l) {
+            const double g01 = std::abs(d.a[0][0][l] - d.a[1][1][l]);
+            const double g12 = std::abs(d.a[1][1][l] - d.a[2][2][l]);
+            const double g02 = std::abs(d.a[0][0][l] - d.a[2][2][l]);
+            const double e01 = std::abs(d.a[0][1][l]) - small_angle_ratio * g01;
+            const double e12 = std::abs(d.a[1][2][l]) - small_angle_ratio * g12;
+            const double e02 = std::abs(d.a[0][2][l]) - small_angle_ratio * g02;
+            excess[l] = std::max(std::max(e01, e12), e02);
+        }
+        return all_below(excess, 1e-300);
+    }
+
     /// Signed singular values and the rotations of every lane of `fb`: after the call, d.u and
     /// d.v hold U, V and s the diagonal of S (s0 >= s1 >= |s2|, s2 < 0 for an inverted F).
     void svd_block(const MatBlock& fb, RotationBlock& warm, DoubleStage& d, DoubleLanes (&s)[3])
@@ -273,9 +322,15 @@ namespace {
                     d.a[i][j][l] = b[0][i] * b[0][j] + b[1][i] * b[1][j] + b[2][i] * b[2][j];
         }
         for (int sweep = 0; sweep < max_double_sweeps; ++sweep) {
-            polish_rotation<0, 1, 2>(d);
-            polish_rotation<1, 2, 0>(d);
-            polish_rotation<2, 0, 1>(d);
+            if (small_angles(d)) {
+                small_rotation<0, 1, 2>(d);
+                small_rotation<1, 2, 0>(d);
+                small_rotation<2, 0, 1>(d);
+            } else {
+                polish_rotation<0, 1, 2>(d);
+                polish_rotation<1, 2, 0>(d);
+                polish_rotation<2, 0, 1>(d);
+            }
             if (sweep + 1 < max_double_sweeps && converged(d.a, double_tolerance))
                 break;
         }

@@ -13,7 +13,8 @@
 //      (1 to 4 sweeps; one usually suffices from a warm start);
 //   2. in double: V from the normalized quaternion (orthogonal to double precision), one or two
 //      more Jacobi sweeps on V^T F^T F V in double (each roughly squares the float stage's
-//      error; the second only if some lane is not diagonal to 1e-13 after the first), columns
+//      error; the second only if some lane is not diagonal to 1e-13 after the first; a sweep
+//      whose angles are all tiny uses sin = t, cos = 1 - t^2 / 2, no square root), columns
 //      sorted by singular value with conditional swaps that keep det V = +1, and a Givens QR of
 //      F V -> U (a rotation) and the signed singular values.
 // Each stage is a sequence of loops over the lanes, so that the dependent chains of separate

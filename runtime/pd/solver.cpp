@@ -196,8 +196,7 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
 
     for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
         timer.restart();
-        m_rhs = m_rhs_base;
-        m_local.accumulate(model, out.positions, m_rhs);
+        m_local.assemble(model, out.positions, m_rhs_base, m_rhs);
         m_timings.local += timer.seconds();
 
         m_global->solve(m_rhs, m_timings);

@@ -9,6 +9,7 @@
 #include <Eigen/SVD>
 #include <gtest/gtest.h>
 
+#include "common/parallel.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/local_step.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
@@ -125,6 +126,74 @@ namespace {
         // At rest every projection is the identity, so rhs = sum_e w_e G_e^T I = L_w X.
         const double scale = model.stiffness_rest().norm();
         EXPECT_LT((rhs - model.stiffness_rest()).norm(), 1e-12 * scale);
+    }
+
+    // Several chunks (the parallel units) against the plain per-tet sum with the scalar
+    // reference projections, and bitwise the same sums on 1 and 2 threads.
+    TEST(LocalStep, ChunkedSumMatchesThePerTetSumOnAnyThreadCount)
+    {
+        test::GridTetOptions grid;
+        grid.nx = grid.ny = grid.nz = 11;
+        grid.jitter = 0.15;
+        const BakeData bake = test::make_identity_bake(grid);
+        Material material;
+        material.poisson_ratio = 0.45; // the volume constraint matters
+        const Model model(bake, material, ModelOptions {});
+        LocalStep local(model);
+        ASSERT_GT(local.num_chunks(), 4);
+
+        // A smooth bend and twist plus noise: some tets stretch, some compress, a few invert.
+        std::mt19937 rng(5);
+        std::normal_distribution<double> noise(0.0, 0.02);
+        MatX3 x = model.rest_positions();
+        for (Index i = 0; i < x.rows(); ++i) {
+            const Vec3 p = x.row(i).transpose();
+            const double a = 0.8 * p.z();
+            x.row(i) << std::cos(a) * p.x() - std::sin(a) * p.y() + 0.3 * p.z() * p.z(),
+                std::sin(a) * p.x() + std::cos(a) * p.y(), 1.1 * p.z();
+            for (int d = 0; d < 3; ++d)
+                x(i, d) += noise(rng);
+        }
+
+        MatX3 expected = MatX3::Zero(model.num_nodes(), 3);
+        for (Index e = 0; e < model.num_tets(); ++e) {
+            const Mat3 f = deformation_gradient(x, model.tets(), model.dm_inverse(), e);
+            const TetProjection p = project_tet(f, model.volume_tolerance());
+            const Mat3 target
+                = model.strain_weight() * p.rotation + model.volume_weight() * p.volume;
+            Mat3 dm_inv;
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c)
+                    dm_inv(r, c) = model.dm_inverse()(e, 3 * r + c);
+            const Mat3 q = model.rest_volumes()(e) * dm_inv * target.transpose();
+            for (int r = 0; r < 3; ++r) {
+                expected.row(model.tets()(e, r + 1)) += q.row(r);
+                expected.row(model.tets()(e, 0)) -= q.row(r);
+            }
+        }
+
+        std::vector<MatX3> results;
+        for (const int threads : { 1, 2 }) {
+            set_threads(threads);
+            LocalStep fresh(model);
+            MatX3 rhs(model.num_nodes(), 3);
+            fresh.compute(model, x, rhs);
+            results.push_back(rhs);
+        }
+        set_threads(0);
+        EXPECT_LT((results[0] - expected).norm(), 1e-9 * expected.norm());
+        EXPECT_EQ(results[0], results[1]);
+
+        // assemble = base + the sum, accumulate adds.
+        const MatX3 base = MatX3::Random(model.num_nodes(), 3);
+        MatX3 assembled(model.num_nodes(), 3);
+        LocalStep again(model);
+        again.assemble(model, x, base, assembled);
+        EXPECT_LT((assembled - base - results[0]).norm(), 1e-12 * results[0].norm());
+        MatX3 added = base;
+        LocalStep third(model);
+        third.accumulate(model, x, added);
+        EXPECT_EQ(added, assembled);
     }
 
 } // namespace

@@ -1,0 +1,262 @@
+#include "runtime/pd/basis_products.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace mat {
+
+namespace {
+
+    constexpr int linear_terms = 4;
+    constexpr int quadratic_terms = 10;
+
+    /// The monomials of y in the basis's term order (preprocess/basis/handle_basis.hpp).
+    inline void monomials(double y0, double y1, double y2, double (&p)[quadratic_terms])
+    {
+        p[0] = 1.0;
+        p[1] = y0;
+        p[2] = y1;
+        p[3] = y2;
+        p[4] = y0 * y0;
+        p[5] = y1 * y1;
+        p[6] = y2 * y2;
+        p[7] = y0 * y1;
+        p[8] = y1 * y2;
+        p[9] = y0 * y2;
+    }
+
+    /// Entries of B that the handle form reproduces to this relative accuracy (the bake
+    /// divides by s_j where the runtime multiplies by 1 / s_j).
+    constexpr double form_tolerance = 1e-12;
+
+    constexpr int lanes = 8;
+
+    /// out rows off_j .. off_j + Terms - 1 = sum over entries [begin, end) of w p_t(y) y_i.
+    template <int Terms, typename Handle>
+    void handle_sums(const Handle& h, int begin, int end, const int* nodes, const double* weights,
+        const double* rest, const double* y, double* out)
+    {
+        alignas(64) double acc[Terms][3][lanes] = {};
+        for (int e0 = begin; e0 < end; e0 += lanes) {
+            const int count = std::min(lanes, end - e0);
+            alignas(64) double px[3][lanes], wy[3][lanes];
+            for (int u = 0; u < lanes; ++u) {
+                const int e = e0 + (u < count ? u : 0);
+                const int i = nodes[e];
+                const double w = u < count ? weights[e] : 0.0;
+                for (int c = 0; c < 3; ++c) {
+                    px[c][u] = (rest[3 * i + c] - h.center[c]) * h.inverse_scale;
+                    wy[c][u] = w * y[3 * i + c];
+                }
+            }
+            for (int c = 0; c < 3; ++c)
+                for (int u = 0; u < lanes; ++u) {
+                    const double v = wy[c][u];
+                    acc[0][c][u] += v;
+                    acc[1][c][u] += px[0][u] * v;
+                    acc[2][c][u] += px[1][u] * v;
+                    acc[3][c][u] += px[2][u] * v;
+                    if constexpr (Terms == quadratic_terms) {
+                        acc[4][c][u] += px[0][u] * px[0][u] * v;
+                        acc[5][c][u] += px[1][u] * px[1][u] * v;
+                        acc[6][c][u] += px[2][u] * px[2][u] * v;
+                        acc[7][c][u] += px[0][u] * px[1][u] * v;
+                        acc[8][c][u] += px[1][u] * px[2][u] * v;
+                        acc[9][c][u] += px[0][u] * px[2][u] * v;
+                    }
+                }
+        }
+        for (int t = 0; t < Terms; ++t)
+            for (int c = 0; c < 3; ++c) {
+                double sum = 0.0;
+                for (int u = 0; u < lanes; ++u)
+                    sum += acc[t][c][u];
+                out[3 * (h.offset + t) + c] = sum;
+            }
+    }
+
+} // namespace
+
+BasisProducts::BasisProducts(const Model& model)
+    : m_model(model)
+{
+    const SparseRowMatrix& b = model.basis();
+    const MatX3& centers = model.handle_centers();
+    const VecX& scales = model.handle_scales();
+    const VecXi& offsets = model.handle_column_offsets();
+    const Index n = b.rows(), k = b.cols(), m = centers.rows();
+    if (m == 0 || scales.size() != m || offsets.size() != m + 1 || offsets(0) != 0
+        || offsets(m) != k)
+        return;
+    std::vector<int> column_handle(k, -1);
+    m_handles.resize(m);
+    for (Index j = 0; j < m; ++j) {
+        const int terms = offsets(j + 1) - offsets(j);
+        if ((terms != linear_terms && terms != quadratic_terms) || !(scales(j) > 0.0))
+            return;
+        Handle& h = m_handles[j];
+        for (int d = 0; d < 3; ++d)
+            h.center[d] = centers(j, d);
+        h.inverse_scale = 1.0 / scales(j);
+        h.offset = offsets(j);
+        h.terms = terms;
+        for (int c = offsets(j); c < offsets(j + 1); ++c)
+            column_handle[c] = static_cast<int>(j);
+    }
+
+    // Every row must be whole handles, each w_ij p_t(y_ij) in term order.
+    const int* indptr = b.outerIndexPtr();
+    const int* indices = b.innerIndexPtr();
+    const double* values = b.valuePtr();
+    const double* rest = model.rest_positions().data();
+    m_node_offsets.assign(n + 1, 0);
+    for (Index i = 0; i < n; ++i) {
+        int e = indptr[i];
+        while (e < indptr[i + 1]) {
+            const int j = column_handle[indices[e]];
+            const Handle& h = m_handles[j];
+            if (indices[e] != h.offset || e + h.terms > indptr[i + 1])
+                return;
+            double p[quadratic_terms];
+            monomials((rest[3 * i] - h.center[0]) * h.inverse_scale,
+                (rest[3 * i + 1] - h.center[1]) * h.inverse_scale,
+                (rest[3 * i + 2] - h.center[2]) * h.inverse_scale, p);
+            const double w = values[e];
+            for (int t = 0; t < h.terms; ++t) {
+                const double expected = w * p[t];
+                if (indices[e + t] != h.offset + t
+                    || !(std::abs(values[e + t] - expected)
+                        <= form_tolerance * std::abs(w) * std::max(1.0, std::abs(p[t]))))
+                    return;
+            }
+            if (w != 0.0) {
+                m_node_handles.push_back(j);
+                m_node_weights.push_back(w);
+            }
+            e += h.terms;
+        }
+        m_node_offsets[i + 1] = static_cast<int>(m_node_handles.size());
+    }
+    // The same entries by handle, nodes ascending.
+    m_handle_offsets.assign(m + 1, 0);
+    for (const int j : m_node_handles)
+        ++m_handle_offsets[j + 1];
+    for (Index j = 0; j < m; ++j)
+        m_handle_offsets[j + 1] += m_handle_offsets[j];
+    m_handle_nodes.resize(m_node_handles.size());
+    m_handle_weights.resize(m_node_handles.size());
+    std::vector<int> fill(m_handle_offsets.begin(), m_handle_offsets.end() - 1);
+    for (Index i = 0; i < n; ++i)
+        for (int e = m_node_offsets[i]; e < m_node_offsets[i + 1]; ++e) {
+            const int slot = fill[m_node_handles[e]]++;
+            m_handle_nodes[slot] = static_cast<int>(i);
+            m_handle_weights[slot] = m_node_weights[e];
+        }
+    m_factored = true;
+}
+
+void BasisProducts::transpose_times(const double* y, double* out) const
+{
+    if (!m_factored) {
+        const SparseRowMatrix& bt = m_model.basis_transpose();
+        const int* indptr = bt.outerIndexPtr();
+        const int* indices = bt.innerIndexPtr();
+        const double* values = bt.valuePtr();
+        tbb::parallel_for(
+            tbb::blocked_range<Index>(0, bt.rows(), 16), [&](const tbb::blocked_range<Index>& r) {
+                for (Index a = r.begin(); a != r.end(); ++a) {
+                    double acc0 = 0.0, acc1 = 0.0, acc2 = 0.0;
+                    for (int j = indptr[a]; j < indptr[a + 1]; ++j) {
+                        const double w = values[j];
+                        const double* yi = y + 3 * indices[j];
+                        acc0 += w * yi[0];
+                        acc1 += w * yi[1];
+                        acc2 += w * yi[2];
+                    }
+                    out[3 * a] = acc0;
+                    out[3 * a + 1] = acc1;
+                    out[3 * a + 2] = acc2;
+                }
+            });
+        return;
+    }
+    // Column off_j + t of B^T y = sum_i w_ij p_t(y_ij) y_i: one pass over handle j's nodes,
+    // eight at a time in lane sums (a fixed order, so vectorized and deterministic).
+    const double* rest = m_model.rest_positions().data();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, static_cast<Index>(m_handles.size()), 4),
+        [&](const tbb::blocked_range<Index>& r) {
+            for (Index j = r.begin(); j != r.end(); ++j) {
+                const Handle& h = m_handles[j];
+                if (h.terms == quadratic_terms)
+                    handle_sums<quadratic_terms>(h, m_handle_offsets[j], m_handle_offsets[j + 1],
+                        m_handle_nodes.data(), m_handle_weights.data(), rest, y, out);
+                else
+                    handle_sums<linear_terms>(h, m_handle_offsets[j], m_handle_offsets[j + 1],
+                        m_handle_nodes.data(), m_handle_weights.data(), rest, y, out);
+            }
+        });
+}
+
+void BasisProducts::reconstruct(const double* q, double* x) const
+{
+    const double* rest = m_model.rest_positions().data();
+    const Index n = m_model.num_nodes();
+    if (!m_factored) {
+        const SparseRowMatrix& basis = m_model.basis();
+        const int* indptr = basis.outerIndexPtr();
+        const int* indices = basis.innerIndexPtr();
+        const double* values = basis.valuePtr();
+        tbb::parallel_for(
+            tbb::blocked_range<Index>(0, n, 256), [&](const tbb::blocked_range<Index>& r) {
+                for (Index i = r.begin(); i != r.end(); ++i) {
+                    double acc0 = rest[3 * i], acc1 = rest[3 * i + 1], acc2 = rest[3 * i + 2];
+                    for (int j = indptr[i]; j < indptr[i + 1]; ++j) {
+                        const double w = values[j];
+                        const double* qa = q + 3 * indices[j];
+                        acc0 += w * qa[0];
+                        acc1 += w * qa[1];
+                        acc2 += w * qa[2];
+                    }
+                    x[3 * i] = acc0;
+                    x[3 * i + 1] = acc1;
+                    x[3 * i + 2] = acc2;
+                }
+            });
+        return;
+    }
+    // x_i = X_i + sum_j w_ij sum_t p_t(y_ij) q_(off_j + t).
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, n, 256), [&](const tbb::blocked_range<Index>& r) {
+            for (Index i = r.begin(); i != r.end(); ++i) {
+                const double* xi = rest + 3 * i;
+                double acc[3] = { xi[0], xi[1], xi[2] };
+                for (int e = m_node_offsets[i]; e < m_node_offsets[i + 1]; ++e) {
+                    const Handle& h = m_handles[m_node_handles[e]];
+                    const double w = m_node_weights[e];
+                    double p[quadratic_terms];
+                    monomials((xi[0] - h.center[0]) * h.inverse_scale,
+                        (xi[1] - h.center[1]) * h.inverse_scale,
+                        (xi[2] - h.center[2]) * h.inverse_scale, p);
+                    const double* qh = q + 3 * h.offset;
+                    double sum[3] = { qh[0], qh[1], qh[2] };
+                    for (int t = 1; t < linear_terms; ++t)
+                        for (int c = 0; c < 3; ++c)
+                            sum[c] += p[t] * qh[3 * t + c];
+                    if (h.terms == quadratic_terms)
+                        for (int t = linear_terms; t < quadratic_terms; ++t)
+                            for (int c = 0; c < 3; ++c)
+                                sum[c] += p[t] * qh[3 * t + c];
+                    for (int c = 0; c < 3; ++c)
+                        acc[c] += w * sum[c];
+                }
+                x[3 * i] = acc[0];
+                x[3 * i + 1] = acc[1];
+                x[3 * i + 2] = acc[2];
+            }
+        });
+}
+
+} // namespace mat

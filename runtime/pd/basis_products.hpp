@@ -1,0 +1,53 @@
+#pragma once
+// The two products of the reduced global step with the handle basis B (n x k), once per PD
+// iteration: B^T y (the reduced right-hand side) and X + B q (the positions).
+//
+// A bake's B has handle form (preprocess/basis/handle_basis.hpp): handle j owns the columns
+// [off_j, off_j+1), and B(i, off_j + t) = w_ij p_t(y_ij) with y_ij = (X_i - c_j) / s_j and p_t
+// the t-th monomial (1, y1, y2, y3 for a linear handle, plus the six quadratic ones). Then one
+// weight per (node, handle) stands for 4 or 10 entries, and both products stream a quarter of
+// the data: B^T y reads y_i once per handle instead of once per column, and B q reads one
+// weight per handle instead of one value and one index per column. When the basis does not
+// have that form exactly (checked entry by entry at construction; e.g. a test's identity
+// basis), the products fall back to plain CSR loops. Either way the summation order is fixed,
+// so the results do not depend on the thread count.
+
+#include <vector>
+
+#include "common/eigen_types.hpp"
+#include "runtime/model.hpp"
+
+namespace mat {
+
+class BasisProducts {
+public:
+    explicit BasisProducts(const Model& model);
+
+    /// True when the handle form is used (else the CSR fallback).
+    bool factored() const { return m_factored; }
+
+    /// out = B^T y: `y`  n x 3 row-major (3 n doubles), `out`  k x 3 row-major (3 k doubles).
+    void transpose_times(const double* y, double* out) const;
+    /// x = X + B q: `q`  k x 3 row-major, `x`  n x 3 row-major.
+    void reconstruct(const double* q, double* x) const;
+
+private:
+    const Model& m_model;
+    bool m_factored = false;
+    // Handle form.
+    struct Handle {
+        double center[3];
+        double inverse_scale;
+        int offset; ///< first basis column
+        int terms; ///< 4 or 10
+    };
+    std::vector<Handle> m_handles; ///< m
+    std::vector<int> m_node_offsets; ///< n + 1: node i's (handle, weight) entries
+    std::vector<int> m_node_handles;
+    std::vector<double> m_node_weights;
+    std::vector<int> m_handle_offsets; ///< m + 1: handle j's (node, weight) entries
+    std::vector<int> m_handle_nodes;
+    std::vector<double> m_handle_weights;
+};
+
+} // namespace mat
