@@ -8,7 +8,6 @@
 
 namespace mat {
 
-
 CouplingCache::CouplingCache(Index num_nodes, Index rows)
     : m_slot(num_nodes, -1)
     , m_rows(rows)

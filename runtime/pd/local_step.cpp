@@ -106,8 +106,9 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     return result;
 }
 
-LocalStep::LocalStep(const Model& model)
+LocalStep::LocalStep(const Model& model, bool exact)
     : m_num_tets(model.num_tets())
+    , m_exact(exact)
 {
     constexpr int lanes = projection_lanes;
     const Index t = model.num_tets();
@@ -216,6 +217,7 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
     params.rotation_weight = model.strain_weight();
     params.volume_weight = model.volume_weight();
     params.limit_weight = model.strain_limit_weight();
+    params.exact = m_exact;
     constexpr int lanes = projection_lanes;
     const double* x = positions.data(); // row-major n x 3
     double* out = rhs.data();

@@ -45,7 +45,8 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
 /// does not depend on the thread count, and one step has two parallel loops, not one per color.
 class LocalStep {
 public:
-    explicit LocalStep(const Model& model);
+    /// `exact`: the projections' decomposition (ProjectionParams::exact).
+    explicit LocalStep(const Model& model, bool exact = true);
 
     /// rhs = sum_e vol_e G_e^T (2 mu R_e + lambda V_e + w_limit L_e)^T  n x 3 at
     /// `positions`  n x 3 (the weighted constraint projections, Bouaziz et al. 2014 eq. 13
@@ -76,6 +77,7 @@ private:
         Eigen::Ref<MatX3> rhs);
 
     Index m_num_tets = 0;
+    bool m_exact = true;
     std::vector<Block> m_blocks; ///< in tet order
     std::vector<int> m_chunk_blocks; ///< #chunks + 1: chunk c is blocks [c_c, c_c+1)
     std::vector<int> m_chunk_slots; ///< #chunks + 1: chunk c owns slots [s_c, s_c+1)

@@ -23,6 +23,11 @@ namespace {
     constexpr double double_tolerance = 1e-13;
     /// A sweep uses small_rotation when every |a_pq| <= this times |a_pp - a_qq|.
     constexpr double small_angle_ratio = 1e-4;
+    /// The fast decomposition leaves a block to the exact one when some lane's smallest
+    /// singular value is below this fraction of its largest.
+    constexpr double fast_min_ratio = 0.05;
+    /// ... or when the columns of U = B S^-1 are farther from orthogonal than this (cosines).
+    constexpr double fast_max_cosine = 1e-5;
     constexpr int volume_newton_steps = 8; ///< at most; fewer once every lane has converged
     constexpr double volume_tolerance_before_last_step = 1e-8;
 
@@ -247,13 +252,11 @@ namespace {
         return all_below(excess, 1e-300);
     }
 
-    /// Signed singular values and the rotations of every lane of `fb`: after the call, d.u and
-    /// d.v hold U, V and s the diagonal of S (s0 >= s1 >= |s2|, s2 < 0 for an inverted F).
-    void svd_block(const MatBlock& fb, RotationBlock& warm, DoubleStage& d, DoubleLanes (&s)[3])
+    /// Stage 1 (float): A = V0^T F^T F V0 with V0 the warm start, Jacobi sweeps until every lane
+    /// is diagonal to float_tolerance; the result's quaternion goes to qw, qv and to `warm`.
+    void float_stage(const MatBlock& fb, RotationBlock& warm, FloatLanes& qw, float (&qv)[3][W])
     {
-        // Stage 1, float: A = V0^T F^T F V0 with V0 the warm start, then Jacobi sweeps.
         alignas(64) float a[3][3][W];
-        alignas(64) float qw[W], qv[3][W];
         for (int l = 0; l < W; ++l) {
             float w = warm.q[0][l], x = warm.q[1][l], y = warm.q[2][l], z = warm.q[3][l];
             const float inv = 1.0f / std::sqrt(w * w + x * x + y * y + z * z);
@@ -294,8 +297,13 @@ namespace {
             warm.q[2][l] = qv[1][l];
             warm.q[3][l] = qv[2][l];
         }
+    }
 
-        // Stage 2, double: V from the normalized quaternion, B = F V, A = B^T B.
+    /// Stage 2 set-up (double): V from the normalized quaternion (orthogonal to double
+    /// precision) and B = F V, into d.v and d.b.
+    void double_setup(
+        const MatBlock& fb, const FloatLanes& qw, const float (&qv)[3][W], DoubleStage& d)
+    {
         for (int l = 0; l < W; ++l) {
             double w = qw[l], x = qv[0][l], y = qv[1][l], z = qv[2][l];
             const double inv = 1.0 / std::sqrt(w * w + x * x + y * y + z * z);
@@ -315,12 +323,84 @@ namespace {
                     d.v[r][c][l] = v[r][c];
                     d.b[r][c][l] = b[r][c];
                 }
+        }
+    }
+
+    /// The fast decomposition (ProjectionParams::exact false): the float stage's V made
+    /// orthogonal in double, B = F V, s_i = |b_i| (columns sorted by it, the smallest negated for
+    /// an inverted F) and U = B S^-1, with no double Jacobi sweep and no QR. Then
+    /// U diag(k) V^T = F V S^-1 diag(k) V^T is exact when F is a rotation times a uniform
+    /// stretch (at rest, under rigid motion: |b_i| is then exact whatever V's error), and
+    /// otherwise off by about the float stage's angle error times the relative spread of the
+    /// singular values. Returns false, leaving the block to the exact path, when some lane's
+    /// smallest singular value is below fast_min_ratio times its largest (U's error grows as
+    /// their ratio) or F is not finite.
+    bool fast_svd_block(
+        const MatBlock& fb, RotationBlock& warm, DoubleStage& d, DoubleLanes (&s)[3])
+    {
+        alignas(64) float qw[W], qv[3][W];
+        float_stage(fb, warm, qw, qv);
+        double_setup(fb, qw, qv, d);
+        alignas(64) double diag[3][W], excess[W], det[W];
+        for (int l = 0; l < W; ++l) {
+#pragma GCC unroll 3
+            for (int i = 0; i < 3; ++i)
+                diag[i][l] = d.b[0][i][l] * d.b[0][i][l] + d.b[1][i][l] * d.b[1][i][l]
+                    + d.b[2][i][l] * d.b[2][i][l];
+            const double f0 = fb.m[0][l], f1 = fb.m[1][l], f2 = fb.m[2][l], f3 = fb.m[3][l],
+                         f4 = fb.m[4][l], f5 = fb.m[5][l], f6 = fb.m[6][l], f7 = fb.m[7][l],
+                         f8 = fb.m[8][l];
+            det[l] = f0 * (f4 * f8 - f5 * f7) - f1 * (f3 * f8 - f5 * f6) + f2 * (f3 * f7 - f4 * f6);
+        }
+        sort_columns(d, diag, 0, 1);
+        sort_columns(d, diag, 0, 2);
+        sort_columns(d, diag, 1, 2);
+        for (int l = 0; l < W; ++l) {
+            // Negated so that NaN fails the test below.
+            excess[l] = diag[2][l] > fast_min_ratio * fast_min_ratio * diag[0][l] ? -1.0 : 1.0;
+        }
+        if (!all_below(excess, 0.0))
+            return false;
+        for (int l = 0; l < W; ++l) {
+#pragma GCC unroll 3
+            for (int i = 0; i < 3; ++i)
+                s[i][l] = std::sqrt(diag[i][l]);
+            s[2][l] = det[l] < 0.0 ? -s[2][l] : s[2][l];
+#pragma GCC unroll 3
+            for (int i = 0; i < 3; ++i) {
+                const double inverse = 1.0 / s[i][l];
+#pragma GCC unroll 3
+                for (int r = 0; r < 3; ++r)
+                    d.u[r][i][l] = d.b[r][i][l] * inverse;
+            }
+            // U's columns are orthogonal exactly when V is exact: their cosines measure the error.
+            double worst = 0.0;
+#pragma GCC unroll 3
+            for (int i = 0; i < 3; ++i) {
+                const int j = (i + 1) % 3;
+                const double cosine = d.u[0][i][l] * d.u[0][j][l] + d.u[1][i][l] * d.u[1][j][l]
+                    + d.u[2][i][l] * d.u[2][j][l];
+                worst = std::max(worst, std::abs(cosine));
+            }
+            excess[l] = worst - fast_max_cosine;
+        }
+        return all_below(excess, 0.0);
+    }
+
+    /// Signed singular values and the rotations of every lane of `fb`: after the call, d.u and
+    /// d.v hold U, V and s the diagonal of S (s0 >= s1 >= |s2|, s2 < 0 for an inverted F).
+    void svd_block(const MatBlock& fb, RotationBlock& warm, DoubleStage& d, DoubleLanes (&s)[3])
+    {
+        alignas(64) float qw[W], qv[3][W];
+        float_stage(fb, warm, qw, qv);
+        double_setup(fb, qw, qv, d);
+        for (int l = 0; l < W; ++l)
 #pragma GCC unroll 3
             for (int i = 0; i < 3; ++i)
 #pragma GCC unroll 3
-                for (int j = 0; j < 3; ++j)
-                    d.a[i][j][l] = b[0][i] * b[0][j] + b[1][i] * b[1][j] + b[2][i] * b[2][j];
-        }
+                for (int j = i; j < 3; ++j)
+                    d.a[i][j][l] = d.b[0][i][l] * d.b[0][j][l] + d.b[1][i][l] * d.b[1][j][l]
+                        + d.b[2][i][l] * d.b[2][j][l];
         for (int sweep = 0; sweep < max_double_sweeps; ++sweep) {
             if (small_angles(d)) {
                 small_rotation<0, 1, 2>(d);
@@ -384,7 +464,15 @@ namespace {
             lo[l] = grow ? s2p : (upper_branch ? h : 0.0);
             hi[l] = grow ? s2p + cbrt_t[l] : (upper_branch ? s2p : h);
             const double start = grow ? lo[l] : hi[l];
-            x[l] = s2 > 0.0 ? s2 : start; // start at S itself when it is on the curve (mu = 0)
+            // From S itself (mu = 0) when s2 > 0, moved by the first-order step d_i = s_i + mu /
+            // s_i, mu = (t / det - 1) / sum 1 / s_i^2 (which leaves a residual of the square of
+            // the violation), if that stays in the bracket.
+            const double inv0 = 1.0 / s0, inv1 = 1.0 / s1, inv2 = 1.0 / s2;
+            const double mu0
+                = (t[l] * inv0 * inv1 * inv2 - 1.0) / (inv0 * inv0 + inv1 * inv1 + inv2 * inv2);
+            const double first = s2 + mu0 * inv2;
+            const bool inside = s2 > 0.0 && first >= lo[l] && first <= hi[l];
+            x[l] = inside ? first : (s2 > 0.0 ? s2 : start);
         }
         for (int iteration = 0; iteration < volume_newton_steps; ++iteration) {
             alignas(64) double residual[W]; // |P(x) - t| / t before this step
@@ -442,7 +530,8 @@ void project_block(
 
     alignas(64) DoubleStage d;
     alignas(64) double ss[3][W];
-    svd_block(f, warm, d, ss);
+    if (params.exact || !fast_svd_block(f, warm, d, ss))
+        svd_block(f, warm, d, ss);
 
     // The volume projection only where some lane needs it (a branch per block, see the header).
     bool any_active = false;

@@ -17,6 +17,14 @@
 //      whose angles are all tiny uses sin = t, cos = 1 - t^2 / 2, no square root), columns
 //      sorted by singular value with conditional swaps that keep det V = +1, and a Givens QR of
 //      F V -> U (a rotation) and the signed singular values.
+// That is the exact decomposition. The fast one (ProjectionParams::exact false, the solvers'
+// default) stops after the float stage: V from its quaternion in double, B = F V, s_i = |b_i|,
+// U = B S^-1. Because F = B V^T exactly, U diag(k) V^T is then exact at rest and under rigid
+// motion whatever V's error, and otherwise off by about the float stage's angle error (1e-5)
+// times the singular values' spread; a block with a flat or collapsed tet (smallest singular
+// value below 5% of the largest) or with U's columns farther than 1e-5 from orthogonal takes
+// the exact path. In a PD solve its trajectories differ from the exact ones by about 1e-7 of
+// the body's size, five orders of magnitude below the reduced model's own error.
 // Each stage is a sequence of loops over the lanes, so that the dependent chains of separate
 // lanes overlap in the pipeline (one loop per Jacobi rotation rather than one per lane).
 // Then the projections, all of the form U diag(.) V^T:
@@ -63,6 +71,11 @@ struct ProjectionParams {
     double rotation_weight = 1.0; ///< w_r
     double volume_weight = 0.0; ///< w_v
     double limit_weight = 0.0; ///< w_l
+    /// True: the exact decomposition (double Jacobi sweeps and QR: every projection to ~1e-11).
+    /// False: the fast one (float eigenvectors, singular values and U in double from them: exact
+    /// at rest and under rigid motion, otherwise accurate to about 1e-5 of the singular values'
+    /// spread; flat or collapsed tets still take the exact path). See project_block.
+    bool exact = true;
 };
 
 /// target_lane = w_r R(F) + w_v P_vol(F) + w_l P_lim(F) for every lane of `f` (see the file

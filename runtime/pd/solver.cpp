@@ -37,7 +37,7 @@ PdSolver::PdSolver(
     : m_model(&model)
     , m_options(options)
     , m_global(std::move(global))
-    , m_local(model)
+    , m_local(model, options.exact_projections)
     , m_pin_targets(model.pin_targets())
     , m_inertia(model.num_nodes(), 3)
     , m_rhs(model.num_nodes(), 3)

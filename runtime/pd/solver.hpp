@@ -42,6 +42,9 @@ struct SolverOptions {
     double contact_margin = 0.01; ///< candidate distance, relative to the rest bounding box
     ContactSettings
         contact; ///< contact solve settings (tolerance relative to the rest bounding box)
+    /// The local step's decomposition: exact (double precision everywhere) or fast (float
+    /// eigenvectors; exact at rest and under rigid motion). See ProjectionParams::exact.
+    bool exact_projections = false;
 };
 
 /// What the last step did.

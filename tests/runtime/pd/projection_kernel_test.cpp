@@ -4,6 +4,7 @@
 // the projection is not unique (degenerate F, the non-convex volume set of an inverted F), the
 // kernel must be at least as close to F as the reference. Plus the strain-limit model options.
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -78,8 +79,8 @@ namespace {
     enum class WarmStart { identity, random, nearby };
 
     /// Runs the kernel three times (weights selecting R, P_vol, P_lim) over `fs`.
-    std::vector<Errors> run_kernel(
-        const std::vector<Mat3>& fs, const std::vector<Kind>& kinds, WarmStart start)
+    std::vector<Errors> run_kernel(const std::vector<Mat3>& fs, const std::vector<Kind>& kinds,
+        WarmStart start, bool exact = true)
     {
         const int lanes = projection_lanes;
         const int blocks = (static_cast<int>(fs.size()) + lanes - 1) / lanes;
@@ -98,6 +99,7 @@ namespace {
             p.limit_min = limit_min;
             p.limit_max = limit_max;
             p.rotation_weight = 0.0;
+            p.exact = exact;
         }
         params[0].rotation_weight = 1.0;
         params[1].volume_weight = 1.0;
@@ -152,6 +154,77 @@ namespace {
                     + std::abs(m[1].determinant() - target));
         }
         return errors;
+    }
+
+    // The fast decomposition (ProjectionParams::exact false), on blocks of one kind each (so that
+    // the flat and collapsed kinds, which it leaves to the exact path, do not hide it): proper
+    // rotations and never farther from F than the reference beyond 2e-6, close to the reference
+    // where the projection is unique (its error is about the float stage's angle error, 1e-5,
+    // times the singular values' spread), from a cold and a warm start.
+    TEST(ProjectionKernel, FastPathIsCloseToTheReference)
+    {
+        std::mt19937 rng(99);
+        for (const Kind kind : { near_rotation, large_stretch, inverted, repeated, random }) {
+            std::vector<Mat3> fs;
+            std::vector<Kind> kinds;
+            for (int i = 0; i < 1600; ++i) {
+                fs.push_back(random_f(rng, kind));
+                kinds.push_back(kind);
+            }
+            for (const WarmStart start : { WarmStart::identity, WarmStart::nearby }) {
+                const Errors e = run_kernel(fs, kinds, start, false)[kind];
+                SCOPED_TRACE(testing::Message()
+                    << "kind " << kind << " start " << static_cast<int>(start) << ": rotation "
+                    << e.rotation << " limit " << e.limit << " excess " << e.rotation_excess
+                    << " / " << e.volume_excess << " proper " << e.proper);
+                EXPECT_EQ(e.non_finite, 0);
+                EXPECT_LT(e.proper, 5e-5);
+                EXPECT_LT(e.rotation_excess, 2e-6);
+                EXPECT_LT(e.volume_excess, 2e-6);
+                if (kind != inverted) { // inverted: two near-equal candidates for the flip
+                    EXPECT_LT(e.rotation, 1e-4);
+                    EXPECT_LT(e.limit, 1e-4);
+                }
+                if (kind == near_rotation) {
+                    EXPECT_LT(e.rotation, 2e-5);
+                    EXPECT_LT(e.volume, 2e-5);
+                }
+            }
+        }
+    }
+
+    // ... and exact, like the exact path, for a rotation times a uniform stretch (a body at rest or
+    // in rigid motion), whatever the warm start.
+    TEST(ProjectionKernel, FastPathIsExactForScaledRotations)
+    {
+        std::mt19937 rng(5);
+        ProjectionParams params;
+        params.volume_tolerance = 0.01;
+        params.rotation_weight = 2.0;
+        params.volume_weight = 3.0;
+        params.exact = false;
+        for (const double scale : { 1.0, 1.2, 0.9 }) {
+            MatBlock f, target;
+            RotationBlock warm;
+            Mat3 r[projection_lanes];
+            for (int l = 0; l < projection_lanes; ++l) {
+                r[l] = random_rotation(rng);
+                warm.q[0][l] = 0.3f + 0.01f * l; // some other rotation
+                warm.q[1][l] = 0.5f;
+                warm.q[2][l] = -0.2f;
+                warm.q[3][l] = 0.7f;
+                for (int i = 0; i < 9; ++i)
+                    f.m[i][l] = scale * r[l](i / 3, i % 3);
+            }
+            project_block(f, params, target, warm);
+            // det (s R) = s^3, clamped to [0.99, 1.01]: P_vol = cbrt(clamp) R, P_rot = R.
+            const double det = scale * scale * scale;
+            const double volume = det == 1.0 ? 1.0 : std::cbrt(std::clamp(det, 0.99, 1.01));
+            for (int l = 0; l < projection_lanes; ++l)
+                for (int i = 0; i < 9; ++i)
+                    EXPECT_NEAR(target.m[i][l], (2.0 + 3.0 * volume) * r[l](i / 3, i % 3), 1e-13)
+                        << "scale " << scale << " lane " << l;
+        }
     }
 
     TEST(ProjectionKernel, MatchesTheScalarReference)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -240,6 +241,33 @@ namespace {
         EXPECT_LT(errors[1], errors[0]) << trace;
         EXPECT_LT(errors[2], errors[1]) << trace;
         EXPECT_LT(errors[0], 1.0) << trace;
+    }
+
+    // The fast projections (the default) against the exact ones on a twisting cube: the same
+    // trajectory up to the fast decomposition's accuracy, far below the reduction's error.
+    TEST(PdSolver, FastProjectionsFollowTheExactOnes)
+    {
+        const BakeData& bake = test::shipped_cube_bake();
+        const Model model(bake, Material {}, model_options());
+        State start = State::at_rest(model);
+        start.velocities = twist_velocities(start.positions);
+        SolverOptions exact, fast;
+        exact.exact_projections = true;
+        fast.exact_projections = false;
+        SemiReducedSolver a(model, exact), b(model, fast);
+        FullSolver reference(model, exact);
+        const State end_exact = run(a, model, start, 10);
+        const State end_fast = run(b, model, start, 10);
+        const State end_full = run(reference, model, start, 10);
+        const double difference
+            = relative_difference(end_fast.positions, end_exact.positions, start.positions);
+        const double reduction
+            = relative_difference(end_exact.positions, end_full.positions, start.positions);
+        RecordProperty(
+            "fast_vs_exact", fmt::format("{:.3g} (the reduction: {:.3g})", difference, reduction));
+        EXPECT_GT(difference, 0.0); // the fast path did run
+        EXPECT_LT(difference, 1e-5);
+        EXPECT_LT(difference, 1e-3 * reduction);
     }
 
     TEST(PdSolver, ResultsDoNotDependOnTheThreadCount)
