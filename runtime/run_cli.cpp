@@ -28,6 +28,9 @@ int run_main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--stats", options.stats,
         "Write per-frame timings, iterations, energies, strain and contacts as JSON");
+    app.add_flag("--check-collisions", options.check_collisions,
+        "After each step, compare the collision world's triangle pairs with an exhaustive check "
+        "and measure the penetration (slow: for testing; results in the summary and --stats)");
     app.add_flag("--scene-reference", reference,
         "Print every scene key with its type, default and doc (Markdown), then exit");
     return run_cli(app, argc, argv, [&] {

@@ -14,6 +14,7 @@
 #include "common/progress.hpp"
 #include "common/timer.hpp"
 #include "formats/atomic_file.hpp"
+#include "runtime/output/collision_check.hpp"
 #include "runtime/output/exporter.hpp"
 #include "runtime/output/measures.hpp"
 #include "runtime/scene/scene.hpp"
@@ -92,6 +93,42 @@ namespace {
             { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
     }
 
+    nlohmann::json check_json(const CollisionCheckCounts& c)
+    {
+        return nlohmann::json { { "far_recall", recall(c.far_found, c.far_pairs) },
+            { "far_pairs", c.far_pairs }, { "far_found", c.far_found },
+            { "near_recall", recall(c.near_found, c.near_pairs) }, { "near_pairs", c.near_pairs },
+            { "near_found", c.near_found }, { "extra", c.extra },
+            { "max_penetration", c.max_penetration },
+            { "penetrating_vertices", c.penetrating_vertices }, { "steps", c.steps },
+            { "seconds", c.seconds } };
+    }
+
+    std::string check_summary(const CollisionCheckCounts& c, double diagonal)
+    {
+        return fmt::format("collision check over {} steps: recall {:.3f}% on pairs in different "
+                           "bodies or non-adjacent primitives ({} of {}{}), {:.3f}% on pairs "
+                           "within one or adjacent primitives ({} of {}, not looked for), {} "
+                           "reported pairs not in the ground truth, max penetration {:.4g} m "
+                           "({:.3f}% of the largest diagonal), {:.3f} s\n",
+            c.steps, 100.0 * recall(c.far_found, c.far_pairs), c.far_found, c.far_pairs,
+            c.far_found == c.far_pairs ? "" : ": MISSED SOME",
+            100.0 * recall(c.near_found, c.near_pairs), c.near_found, c.near_pairs, c.extra,
+            c.max_penetration, 100.0 * c.max_penetration / std::max(diagonal, 1e-300), c.seconds);
+    }
+
+    /// The largest rest bounding-box diagonal of the bodies.
+    double largest_diagonal(const Simulation& simulation)
+    {
+        double diagonal = 0.0;
+        for (const Body& body : simulation.bodies()) {
+            const MatX3& rest = body.model->rest_positions();
+            diagonal = std::max(
+                diagonal, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
+        }
+        return diagonal;
+    }
+
     std::string timing_table(const SolverTimings& t, double collision_seconds,
         double export_seconds, double measure_seconds, double total_seconds, long steps)
     {
@@ -158,6 +195,10 @@ void run_simulation(const RunOptions& options)
     }
 
     Simulation simulation(scene, solver_kind);
+    if (options.check_collisions && simulation.collision() == nullptr)
+        throw_error("--check-collisions: {} has no collision between objects to check (it needs "
+                    "solver.collision bounded or lazy, and two objects or self_collision on)",
+            scene.file);
     // The output directory appears only once the inputs are known good.
     std::error_code error;
     std::filesystem::create_directories(options.output, error);
@@ -182,6 +223,7 @@ void run_simulation(const RunOptions& options)
     double export_seconds = 0.0, measure_seconds = 0.0;
     SolverTimings before = total_timings(simulation);
     CollisionReport frame_collision, total_collision;
+    CollisionCheckCounts frame_check, total_check;
     Timer loop;
 
     auto output_frame
@@ -222,6 +264,8 @@ void run_simulation(const RunOptions& options)
                       { "bodies", std::move(bodies) } };
                   if (simulation.collision() != nullptr)
                       entry["collision"] = collision_json(frame_collision);
+                  if (options.check_collisions && frame > 0)
+                      entry["collision_check"] = check_json(frame_check);
                   frame_stats.push_back(std::move(entry));
                   before = now;
               }
@@ -235,11 +279,22 @@ void run_simulation(const RunOptions& options)
         for (auto& r : reports)
             r = StepReport {};
         frame_collision = CollisionReport {};
+        frame_check = CollisionCheckCounts {};
         for (int s = 0; s < scene.steps_per_frame; ++s) {
             simulation.step();
             if (const CollisionWorld* collision = simulation.collision()) {
                 accumulate(frame_collision, collision->last_report());
                 accumulate(total_collision, collision->last_report());
+            }
+            if (options.check_collisions) {
+                const CollisionCheckCounts check = check_collisions(simulation);
+                if (check.far_found != check.far_pairs)
+                    logger().warn("collision check, step {}: the world found {} of the {} "
+                                  "intersecting triangle pairs in different bodies or "
+                                  "non-adjacent primitives",
+                        simulation.steps(), check.far_found, check.far_pairs);
+                frame_check.add(check);
+                total_check.add(check);
             }
             for (std::size_t b = 0; b < reports.size(); ++b) {
                 const StepReport& last = simulation.bodies()[b].solver->last_report();
@@ -270,6 +325,8 @@ void run_simulation(const RunOptions& options)
                    measure_seconds, loop_seconds, steps)
                    .c_str(),
         stdout);
+    if (options.check_collisions)
+        std::fputs(check_summary(total_check, largest_diagonal(simulation)).c_str(), stdout);
     std::fflush(stdout);
 
     if (stats) {
@@ -283,6 +340,8 @@ void run_simulation(const RunOptions& options)
         if (simulation.collision() != nullptr)
             document["collision_ms_per_step"] = collision_phase_json(
                 total_collision, steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0);
+        if (options.check_collisions)
+            document["collision_check"] = check_json(total_check);
         write_text_atomically(options.stats, document.dump(1) + "\n");
     }
 }

@@ -12,6 +12,9 @@ struct RunOptions {
     int frames = 0; ///< > 0 overrides the scene's frame count
     std::string solver = "semi"; ///< "semi" (semi-reduced PD) or "full" (full-space PD)
     std::string stats; ///< --stats FILE.json, "" for none
+    /// After each step, compare the collision world's triangle pairs with the exhaustive ground
+    /// truth and measure the penetration (runtime/output/collision_check.hpp).
+    bool check_collisions = false;
 };
 
 /// Runs the scene. Throws mat::Error on bad input or a failing solve; files already written

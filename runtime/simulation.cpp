@@ -128,7 +128,11 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
 
         body.model = std::make_unique<Model>(bake, material_of(object.material), options);
         body.surface = std::make_unique<SurfaceView>(bake);
-        body.is_static = object.motion == "static";
+        body.is_static = object.motion == "static" || object.motion == "kinematic";
+        body.is_kinematic = object.motion == "kinematic";
+        body.object = &object;
+        body.surface_primitive = bake.collision.vertex_primitive;
+        body.primitive_spheres = bake.collision.primitive_spheres;
         if (m_collision)
             m_collision->add_body(bake);
         body.num_handles = bake.num_handles();
@@ -162,8 +166,19 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         for (const PinGroup& group : body.pins)
             for (const int i : group.nodes)
                 body.state.velocities.row(i).setZero();
-        if (body.is_static)
+        body.placed_centre = centre;
+        if (body.is_kinematic) {
+            // Its keyframes may not start at the placement; velocities as given (constant
+            // motion) or zero (keyframes: the first step's finite difference follows).
+            body.placed_rest = body.state.positions;
+            if (!object.keyframes.empty()) {
+                body.state.positions = apply_pin_transform(
+                    kinematic_motion_at(object, 0.0, centre), body.placed_rest);
+                body.state.velocities.setZero();
+            }
+        } else if (body.is_static) {
             body.state.velocities.setZero();
+        }
         body.pin_targets = options.pin_targets;
         update_pin_targets(body, 0.0);
         logger().info("{}: {} nodes, {} tets, {} handles, {} columns, {} pinned nodes", body.name,
@@ -192,10 +207,23 @@ void Simulation::update_pin_targets(Body& body, double time)
         body.solver->set_pin_targets(body.pin_targets);
 }
 
+void Simulation::move_kinematic(Body& body, double time)
+{
+    body.next.positions = apply_pin_transform(
+        kinematic_motion_at(*body.object, time, body.placed_centre), body.placed_rest);
+    body.next.velocities = (body.next.positions - body.state.positions) / m_scene.time.dt;
+    std::swap(body.state, body.next);
+}
+
 void Simulation::step()
 {
     const double dt = m_scene.time.dt;
     const double next_time = (m_steps + 1) * dt;
+    // Kinematic bodies go first, to where they are at the end of the step: the others' contacts
+    // of this step are with them there.
+    for (Body& body : m_bodies)
+        if (body.is_kinematic)
+            move_kinematic(body, next_time);
     if (m_collision) {
         // Before the first step q does not hold the placement yet: bounds from positions.
         std::vector<CollisionBodyState> states(m_bodies.size());

@@ -8,6 +8,11 @@
 // invariant and the handle basis reproduces any affine map, so the placed rest state is exact.
 // Pin regions select nodes by their bake coordinates; a pinned node's target at time t is the
 // placement of its region's motion: R (M(t) X) + t_placement.
+// A kinematic body is not simulated: each step first moves its nodes to their prescribed places
+// at the end of the step (kinematic_motion_at of the placed rest positions), with velocities the
+// step's displacement over dt; the collision world then sees it there, as a mesh collider (it
+// gets no contacts; the others' contact planes lie on its surface). The contact solve has no
+// collider velocity: friction against it acts on the others' motion relative to the world.
 
 #include <memory>
 #include <string>
@@ -48,7 +53,16 @@ struct Body {
     std::vector<PinGroup> pins;
     MatX3 pin_targets; ///< #pinned x 3, workspace
     Index num_handles = 0;
-    bool is_static = false; ///< not stepped: a mesh collider for the others
+    /// Not stepped by a solver (a static or a kinematic object): a mesh collider for the others.
+    bool is_static = false;
+    bool is_kinematic = false; ///< moves rigidly as prescribed (then is_static too)
+    const ObjectSettings* object = nullptr; ///< its scene entry
+    MatX3 placed_rest; ///< n x 3 placed rest positions (kinematic bodies only)
+    Vec3 placed_centre = Vec3::Zero(); ///< placed centre of mass
+    /// For the collision check: the medial primitive enclosing each surface vertex  #Vs, and
+    /// each primitive's spheres  #P x 3 (-1 unused).
+    VecXi surface_primitive;
+    MatX3i primitive_spheres;
 };
 
 class Simulation {
@@ -71,6 +85,7 @@ public:
 
 private:
     void update_pin_targets(Body& body, double time);
+    void move_kinematic(Body& body, double time);
 
     const Scene& m_scene;
     std::vector<Body> m_bodies;

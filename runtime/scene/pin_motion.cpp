@@ -18,7 +18,26 @@ Mat3 rotation_from_euler_degrees(const Vec3& angles)
 
 PinTransform pin_motion_at(const PinRegion& region, double time, const Vec3& centroid)
 {
-    const std::vector<PinKeyframe>& keys = region.motion;
+    return keyframe_motion_at(region.motion, time, centroid);
+}
+
+PinTransform kinematic_motion_at(const ObjectSettings& object, double time, const Vec3& centre)
+{
+    if (!object.keyframes.empty())
+        return keyframe_motion_at(object.keyframes, time, centre);
+    PinTransform transform;
+    const double angle = object.angular_velocity.norm() * time;
+    if (angle != 0.0)
+        transform.rotation
+            = Eigen::AngleAxisd(angle, object.angular_velocity.normalized()).toRotationMatrix();
+    // x -> R (x - c) + c + v t
+    transform.translation = centre + object.velocity * time - transform.rotation * centre;
+    return transform;
+}
+
+PinTransform keyframe_motion_at(
+    const std::vector<PinKeyframe>& keys, double time, const Vec3& centroid)
+{
     if (keys.empty())
         return {};
 
@@ -36,7 +55,7 @@ PinTransform pin_motion_at(const PinRegion& region, double time, const Vec3& cen
             [](double t, const PinKeyframe& key) { return t < key.time; });
         const PinKeyframe& k1 = *after;
         const PinKeyframe& k0 = *(after - 1);
-        MAT_CHECK(k1.time > k0.time, "pin keyframe times must be strictly increasing");
+        MAT_CHECK(k1.time > k0.time, "keyframe times must be strictly increasing");
         const double alpha = (time - k0.time) / (k1.time - k0.time);
         translation = (1.0 - alpha) * k0.translation + alpha * k1.translation;
         angles = (1.0 - alpha) * k0.rotation_degrees + alpha * k1.rotation_degrees;

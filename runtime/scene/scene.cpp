@@ -314,6 +314,7 @@ namespace {
                 ObjectSettings& object = *std::get<ObjectSettings*>(target);
                 if (!given(join_key(path, "name")))
                     object.name = fmt::format("object{}", index);
+                finish_object(object, path);
                 break;
             }
             case Section::pin:
@@ -350,11 +351,39 @@ namespace {
             pin.kind = kinds[0] == "box" ? PinKind::box
                 : kinds[0] == "sphere"   ? PinKind::sphere
                                          : PinKind::nodes;
-            for (std::size_t i = 1; i < pin.motion.size(); ++i)
-                if (!(pin.motion[i].time > pin.motion[i - 1].time))
-                    fail(join_key(element_path(join_key(path, "motion"), i), "time"),
-                        "{} is not after the previous keyframe's time {}", pin.motion[i].time,
-                        pin.motion[i - 1].time);
+            check_keyframe_times(pin.motion, join_key(path, "motion"));
+        }
+
+        void finish_object(const ObjectSettings& object, const std::string& path) const
+        {
+            const std::string keyframes = join_key(path, "keyframes");
+            if (object.motion != "kinematic") {
+                if (given(keyframes))
+                    fail(keyframes, "only a kinematic object has keyframes (motion is \"{}\")",
+                        object.motion);
+                return;
+            }
+            if (!object.pins.empty())
+                fail(join_key(path, "pins"),
+                    "a kinematic object moves rigidly as prescribed: it cannot have pins");
+            if (!object.keyframes.empty()) {
+                for (const char* key : { "velocity", "angular_velocity" })
+                    if (given(join_key(path, key)))
+                        fail(join_key(path, key),
+                            "a kinematic object with keyframes moves by them: give keyframes or "
+                            "velocity and angular_velocity, not both");
+            }
+            check_keyframe_times(object.keyframes, keyframes);
+        }
+
+        void check_keyframe_times(
+            const std::vector<PinKeyframe>& keys, const std::string& list_path) const
+        {
+            for (std::size_t i = 1; i < keys.size(); ++i)
+                if (!(keys[i].time > keys[i - 1].time))
+                    fail(join_key(element_path(list_path, i), "time"),
+                        "{} is not after the previous keyframe's time {}", keys[i].time,
+                        keys[i - 1].time);
         }
 
         void finish_root(Scene& scene) const

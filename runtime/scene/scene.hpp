@@ -57,7 +57,8 @@ struct PinSphere {
     double radius = 0.0; ///< > 0
 };
 
-/// One keyframe of a pin region's prescribed rigid motion (see pin_motion.hpp).
+/// One keyframe of a prescribed rigid motion: of a pin region, or of a kinematic object (see
+/// pin_motion.hpp).
 struct PinKeyframe {
     double time = 0.0; ///< s, strictly increasing along the list
     Vec3 translation = Vec3::Zero(); ///< displacement of the region, m
@@ -76,7 +77,7 @@ struct PinRegion {
 
 struct ObjectSettings {
     std::string name; ///< unique among the objects
-    std::string motion; ///< "dynamic" or "static"
+    std::string motion; ///< "dynamic", "static" or "kinematic"
     std::string bake; ///< absolute, normalized path of the bake file
     Vec3 position = Vec3::Zero(); ///< translation applied after the rotation, m
     /// XYZ Euler angles, degrees: rotate about x, then y, then z, about the bake's origin
@@ -85,7 +86,10 @@ struct ObjectSettings {
     Vec3 velocity = Vec3::Zero(); ///< initial velocity, m/s
     Vec3 angular_velocity = Vec3::Zero(); ///< initial, rad/s, about the centre of mass
     MaterialSettings material;
-    std::vector<PinRegion> pins;
+    std::vector<PinRegion> pins; ///< none on a kinematic object
+    /// Kinematic objects: keyframes of the rigid motion relative to the placement (rotation about
+    /// the placed centre of mass); empty = constant velocity and angular_velocity.
+    std::vector<PinKeyframe> keyframes;
 };
 
 struct ColliderSettings {

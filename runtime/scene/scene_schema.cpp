@@ -174,9 +174,11 @@ namespace {
                 .set_doc("unique name; by default \"object\" and the index in objects"),
             value_key(S::object, "motion", T::string, &ObjectSettings::motion)
                 .set_default("dynamic")
-                .set_choices({ "dynamic", "static" })
-                .set_doc("dynamic: simulated; static: stays at its placement and serves as a mesh "
-                         "collider for the others"),
+                .set_choices({ "dynamic", "static", "kinematic" })
+                .set_doc("dynamic: simulated; static: stays at its placement; kinematic: moves "
+                         "rigidly as prescribed (keyframes, or else constant velocity and "
+                         "angular_velocity); static and kinematic objects are not simulated and "
+                         "serve as mesh colliders for the others"),
             value_key(S::object, "bake", T::path, &ObjectSettings::bake)
                 .set_required()
                 .set_doc("the bake file (mat-bake output), relative to the scene file's "
@@ -190,15 +192,20 @@ namespace {
                          "about the bake's origin"),
             value_key(S::object, "velocity", T::vec3, &ObjectSettings::velocity)
                 .set_default(zero)
-                .set_doc("initial velocity, m/s"),
+                .set_doc("initial velocity, m/s (a kinematic object without keyframes keeps it)"),
             value_key(S::object, "angular_velocity", T::vec3, &ObjectSettings::angular_velocity)
                 .set_default(zero)
-                .set_doc("initial angular velocity about the centre of mass, rad/s"),
+                .set_doc("initial angular velocity about the centre of mass, rad/s (a kinematic "
+                         "object without keyframes keeps it)"),
             section_key(S::object, "material", S::material, &ObjectSettings::material)
                 .set_doc("elastic material"),
             array_key(S::object, "pins", S::pin, &ObjectSettings::pins)
                 .set_doc("pinned regions, in the bake's coordinates (before the object is "
-                         "placed)"),
+                         "placed); not on a kinematic object"),
+            array_key(S::object, "keyframes", S::object_keyframe, &ObjectSettings::keyframes)
+                .set_doc("kinematic objects only: keyframes of the rigid motion; translation "
+                         "and Euler angles are interpolated linearly, the first holds before it, "
+                         "the last after it; not with velocity or angular_velocity"),
 
             // objects[].material
             value_key(S::material, "youngs_modulus", T::number, &MaterialSettings::youngs_modulus)
@@ -261,6 +268,19 @@ namespace {
             value_key(S::keyframe, "rotation_degrees", T::vec3, &PinKeyframe::rotation_degrees)
                 .set_default(zero)
                 .set_doc("XYZ Euler angles, degrees, about the region's rest centroid"),
+
+            // objects[].keyframes[]
+            value_key(S::object_keyframe, "time", T::number, &PinKeyframe::time)
+                .set_required()
+                .at_least(0)
+                .set_doc("s, strictly increasing along the list"),
+            value_key(S::object_keyframe, "translation", T::vec3, &PinKeyframe::translation)
+                .set_default(zero)
+                .set_doc("displacement from the placement, m"),
+            value_key(
+                S::object_keyframe, "rotation_degrees", T::vec3, &PinKeyframe::rotation_degrees)
+                .set_default(zero)
+                .set_doc("XYZ Euler angles, degrees, about the placed centre of mass"),
 
             // colliders[]
             value_key(S::collider, "type", T::string, &ColliderSettings::type)

@@ -31,6 +31,7 @@ enum class Section {
     box,
     sphere,
     keyframe,
+    object_keyframe,
     collider,
     output,
 };

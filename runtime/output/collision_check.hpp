@@ -1,0 +1,70 @@
+#pragma once
+// mat-run --check-collisions (issue 5, item 6): after each step, the collision world's
+// intersecting triangle pairs are compared with the exhaustive ground truth
+// (intersecting_triangle_pairs over every surface triangle pair) on the same surfaces, in world
+// coordinates, as the world saw them at its last detect(). The pairs are split by where their
+// triangles lie (each triangle belongs to the primitives enclosing its vertices):
+//   - far: the two triangles are in different bodies, or in one body and in two primitives that
+//     share no medial sphere. The pipeline tests every such primitive pair whose enlarged
+//     primitives meet, and both triangles lie inside theirs, so it must find every far pair:
+//     recall 100%.
+//   - near: within one body, every primitive of one triangle is a primitive of the other or
+//     shares a medial sphere with it. Self collision skips such primitive pairs by design
+//     (adjacent primitives always overlap: testing them would test every triangle against its
+//     neighbourhood), so these pairs are not looked for and their recall is about 0. They are
+//     local folds of the surface, which the elastic energy resists, not contacts.
+// Pairs between two bodies that are both static or kinematic are left out (the world skips
+// them), and so are self pairs when self collision is off.
+// The penetration depth is measured on the bodies' surfaces after the step (after the contact
+// response): the largest distance from a surface vertex of one body that lies inside another
+// body's closed surface to that surface. Self penetration is not measured (a vertex of a closed
+// surface is on it, not inside it).
+
+#include <vector>
+
+#include "common/eigen_types.hpp"
+#include "common/mesh_types.hpp"
+#include "runtime/simulation.hpp"
+
+namespace mat {
+
+/// One step's comparison, or their sum over steps (add()).
+struct CollisionCheckCounts {
+    long far_pairs = 0; ///< ground-truth pairs in different bodies or non-adjacent primitives
+    long far_found = 0; ///< of those, found by the world
+    long near_pairs = 0; ///< ground-truth self pairs within one or in adjacent primitives
+    long near_found = 0;
+    long extra = 0; ///< pairs the world reported that the ground truth does not have
+    double max_penetration = 0.0; ///< m, deepest vertex inside another body
+    int penetrating_vertices = 0; ///< vertices inside another body (max over steps)
+    long steps = 0;
+    double seconds = 0.0; ///< time spent checking
+
+    /// Counts are summed, the penetration and the vertex count are maxima.
+    void add(const CollisionCheckCounts& other);
+};
+
+/// found / pairs, or 1 when there is no pair.
+double recall(long found, long pairs);
+
+/// True if faces fa and fb of one body lie in two primitives that share no medial sphere, i.e.
+/// if some primitive of a vertex of fa and some primitive of a vertex of fb differ and share no
+/// sphere.  faces  #F x 3,  vertex_primitive  #V,  primitive_spheres  #P x 3 (-1 unused).
+bool faces_in_non_adjacent_primitives(const Eigen::Ref<const MatX3i>& faces,
+    const Eigen::Ref<const VecXi>& vertex_primitive,
+    const Eigen::Ref<const MatX3i>& primitive_spheres, int fa, int fb);
+
+struct PenetrationDepth {
+    double max_depth = 0.0; ///< m
+    int vertices = 0; ///< vertices inside another surface
+};
+
+/// For every ordered pair of distinct closed surfaces (A, B): the vertices of A strictly inside
+/// B (ray parity along +x, exact orientation predicates with a symbolic tie-break, so a ray
+/// through an edge counts once) and their distance to B. A vertex on B counts as outside.
+PenetrationDepth penetration_depth(const std::vector<SurfaceMesh>& surfaces);
+
+/// The comparison above for `simulation` after a step (its collision world must exist).
+CollisionCheckCounts check_collisions(const Simulation& simulation);
+
+} // namespace mat
