@@ -284,12 +284,12 @@ namespace {
                 for (int j = i; j < 3; ++j)
                     a[i][j][l] = b[0][i] * b[0][j] + b[1][i] * b[1][j] + b[2][i] * b[2][j];
         }
-        for (int sweep = 0; sweep < max_float_sweeps; ++sweep) {
+        // No sweep when the warm start already diagonalizes A (at rest, under rigid motion, or
+        // when F barely changed since the last projection).
+        for (int sweep = 0; sweep < max_float_sweeps && !converged(a, float_tolerance); ++sweep) {
             jacobi_rotation<0, 1, 2>(a, qw, qv);
             jacobi_rotation<1, 2, 0>(a, qw, qv);
             jacobi_rotation<2, 0, 1>(a, qw, qv);
-            if (sweep + 1 < max_float_sweeps && converged(a, float_tolerance))
-                break;
         }
         for (int l = 0; l < W; ++l) {
             warm.q[0][l] = qw[l];
@@ -524,7 +524,6 @@ void project_block(
 {
     const double eps = params.volume_tolerance;
     const double t_lo = 1.0 - eps, t_hi = 1.0 + eps;
-    const double cbrt_lo = std::cbrt(t_lo), cbrt_hi = std::cbrt(t_hi);
     const double wr = params.rotation_weight, wv = params.volume_weight, wl = params.limit_weight;
     const double lmin = params.limit_min, lmax = params.limit_max;
 
@@ -541,6 +540,7 @@ void project_block(
     }
     alignas(64) double k[3][W];
     if (any_active && wv != 0.0) {
+        const double cbrt_lo = std::cbrt(t_lo), cbrt_hi = std::cbrt(t_hi);
         alignas(64) double t[W], cbrt_t[W], dv[3][W];
         for (int l = 0; l < W; ++l) {
             const bool grow = ss[0][l] * ss[1][l] * ss[2][l] < t_lo;

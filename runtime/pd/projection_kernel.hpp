@@ -10,7 +10,7 @@
 //   1. Jacobi eigen-decomposition of F^T F in float with approximate Givens rotations, V kept as
 //      a quaternion, started from a warm start V0 (the last projection's V in a PD solve, or the
 //      identity): sweeps on V0^T F^T F V0 until every lane of the block is diagonal to 1e-5
-//      (1 to 4 sweeps; one usually suffices from a warm start);
+//      (0 to 4 sweeps: none when the warm start already does, one usually suffices);
 //   2. in double: V from the normalized quaternion (orthogonal to double precision), one or two
 //      more Jacobi sweeps on V^T F^T F V in double (each roughly squares the float stage's
 //      error; the second only if some lane is not diagonal to 1e-13 after the first; a sweep
