@@ -141,6 +141,7 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         solver_options.iterations = scene.time.iterations;
         solver_options.gravity = scene.gravity;
         solver_options.damping = scene.solver.damping;
+        solver_options.exact_projections = scene.solver.projections == "exact";
         solver_options.contact_margin = scene.solver.contact_margin;
         for (const ColliderSettings& collider : scene.colliders)
             solver_options.planes.push_back(

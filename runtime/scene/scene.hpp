@@ -31,6 +31,7 @@ struct TimeSettings {
 struct SolverSettings {
     double damping = 0.0; ///< per-step velocity scaling in [0, 1)
     double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
+    std::string projections; ///< "fast" or "exact" (SolverOptions::exact_projections)
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     std::string collision; ///< "bounded", "lazy" or "off"
     std::string self_collision; ///< "on" or "off"

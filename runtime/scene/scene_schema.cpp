@@ -139,6 +139,12 @@ namespace {
                 .at_least(0)
                 .below(1)
                 .set_doc("volume constraints keep det F in [1 - tolerance, 1 + tolerance]"),
+            value_key(S::solver, "projections", T::string, &SolverSettings::projections)
+                .set_default("fast")
+                .set_choices({ "fast", "exact" })
+                .set_doc("the local step's SVD: fast (float eigenvectors, exact at rest and under "
+                         "rigid motion, about 1e-7 of the size off the exact trajectory) or exact "
+                         "(double precision throughout, slower)"),
             value_key(S::solver, "contact_margin", T::number, &SolverSettings::contact_margin)
                 .set_default(0.01)
                 .at_least(0)
