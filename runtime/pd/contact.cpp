@@ -75,11 +75,15 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
         double change = 0.0;
         for (Index c = 0; c < m; ++c) {
             const PlaneCollider& plane = planes[pairs[c].plane];
-            const double w = coupling(c, c);
-            if (!(w > 0.0))
+            const double coupling_cc = coupling(c, c);
+            if (!(coupling_cc > 0.0))
                 continue; // a node the global step cannot move (cannot happen for SPD systems)
+            // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
+            // unit force.
+            const double eps = plane.compliance * coupling_cc;
+            const double w = coupling_cc + eps;
             const Vec3 n = plane.normal;
-            const Vec3 x = positions.row(c).transpose();
+            const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
             const Vec3 f = forces.row(c).transpose();
             const double f_n = n.dot(f);
             const Vec3 f_t = f - f_n * n;
@@ -104,7 +108,7 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
             ensure_column(c);
             for (Index d = 0; d < m; ++d)
                 positions.row(d) += coupling(d, c) * delta.transpose();
-            change = std::max(change, w * delta.norm());
+            change = std::max(change, coupling_cc * delta.norm());
         }
         result.sweeps = sweep + 1;
         result.last_change = change;

@@ -30,6 +30,12 @@ struct PlaneCollider {
     Vec3 point = Vec3::Zero();
     Vec3 normal = Vec3::UnitY(); ///< unit length
     double friction = 0.5; ///< Coulomb coefficient mu >= 0
+    /// Contact compliance, relative to the node's own coupling D_cc: the conditions hold for
+    /// x_c + compliance D_cc f_c instead of x_c (0: a hard contact). A little compliance keeps
+    /// the forces unique and bounded where more contacts press on a body than it has degrees
+    /// of freedom (a reduced body against another body), at the price of a penetration of
+    /// compliance D_cc |f_c|.
+    double compliance = 0.0;
 };
 
 /// A contact given from outside the solver for one step (collision between bodies, mesh

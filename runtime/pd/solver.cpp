@@ -19,6 +19,9 @@ namespace {
             throw_error("solver: iterations {} must be at least 1", options.iterations);
         if (!(options.damping >= 0.0 && options.damping < 1.0))
             throw_error("solver: damping {} must be in [0, 1)", options.damping);
+        if (!(options.node_contact_compliance >= 0.0))
+            throw_error("solver: node contact compliance {} must be non-negative",
+                options.node_contact_compliance);
         if (!(options.contact_margin >= 0.0))
             throw_error("solver: contact margin {} must be non-negative", options.contact_margin);
         for (std::size_t p = 0; p < options.planes.size(); ++p) {
@@ -113,6 +116,7 @@ void PdSolver::find_contacts(const State& in)
     for (const NodeContact& c : m_node_contacts) {
         m_pairs.push_back(ContactPair { c.node, static_cast<int>(m_step_planes.size()) });
         m_step_planes.push_back(c.plane);
+        m_step_planes.back().compliance = m_options.node_contact_compliance;
         m_pair_nodes.push_back(c.node);
         m_unique_nodes.push_back(c.node);
     }

@@ -45,6 +45,11 @@ struct SolverOptions {
     /// The local step's decomposition: exact (double precision everywhere) or fast (float
     /// eigenvectors; exact at rest and under rigid motion). See ProjectionParams::exact.
     bool exact_projections = false;
+    /// Compliance of the node contacts given by set_node_contacts (collision between bodies;
+    /// PlaneCollider::compliance): without it, a reduced body pressed by more contacts than it
+    /// has degrees of freedom takes unbounded forces (strains of 2 to 10 on stacked 2-handle
+    /// capsules). Ground planes stay hard.
+    double node_contact_compliance = 0.1;
 };
 
 /// What the last step did.

@@ -44,6 +44,25 @@ namespace {
         }
     }
 
+    TEST(PlaneContact, CompliantContactStopsShortByItsCompliance)
+    {
+        // Compliance k: the conditions hold at x + k D f, so f = -gap / (D (1 + k)) and the node
+        // stays gap k / (1 + k) behind the plane.
+        PlaneCollider plane { Vec3::Zero(), Vec3::UnitY(), 0.0 };
+        plane.compliance = 0.1;
+        const std::vector<PlaneCollider> planes { plane };
+        const std::vector<ContactPair> pairs { ContactPair { 0, 0 } };
+        MatX coupling(1, 1);
+        coupling << 0.5;
+        MatX3 free(1, 3), start(1, 3), forces = MatX3::Zero(1, 3), positions(1, 3);
+        free << 0.3, -0.2, 0.1;
+        start << 0.0, 0.1, 0.0;
+        solve_dense(coupling, planes, pairs, free, start, forces, positions);
+        EXPECT_NEAR(forces(0, 1), 0.2 / (0.5 * 1.1), 1e-12);
+        EXPECT_NEAR(positions(0, 1), -0.2 * 0.1 / 1.1, 1e-12);
+        EXPECT_NEAR(positions(0, 0), 0.3, 1e-15);
+    }
+
     TEST(PlaneContact, SingleNodeIsPushedOntoThePlane)
     {
         const std::vector<PlaneCollider> planes { PlaneCollider {
@@ -197,7 +216,9 @@ namespace {
         SolverOptions with_plane;
         with_plane.planes = { ground };
         SemiReducedSolver plane_solver(cube.model, with_plane);
-        SemiReducedSolver node_solver(cube.model, SolverOptions {});
+        SolverOptions hard; // the same hard contact as the plane
+        hard.node_contact_compliance = 0.0;
+        SemiReducedSolver node_solver(cube.model, hard);
         const std::vector<int> boundary = boundary_nodes(cube.model.tets(), cube.model.num_nodes());
         State a = State::at_rest(cube.model), b = a, next;
         double deepest = 0.0;
