@@ -2,6 +2,7 @@
 // force, polar decomposition, the volume constraint's optimality conditions) and the assembled
 // right-hand side against the bake's Laplacian at rest.
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -11,6 +12,7 @@
 
 #include "common/parallel.hpp"
 #include "runtime/model.hpp"
+#include "runtime/output/measures.hpp"
 #include "runtime/pd/local_step.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
 
@@ -128,6 +130,23 @@ namespace {
         EXPECT_LT((rhs - model.stiffness_rest()).norm(), 1e-12 * scale);
     }
 
+    /// A smooth bend and twist plus noise: some tets stretch, some compress, a few invert.
+    MatX3 bent_and_twisted(const MatX3& rest)
+    {
+        std::mt19937 rng(5);
+        std::normal_distribution<double> noise(0.0, 0.02);
+        MatX3 x = rest;
+        for (Index i = 0; i < x.rows(); ++i) {
+            const Vec3 p = x.row(i).transpose();
+            const double a = 0.8 * p.z();
+            x.row(i) << std::cos(a) * p.x() - std::sin(a) * p.y() + 0.3 * p.z() * p.z(),
+                std::sin(a) * p.x() + std::cos(a) * p.y(), 1.1 * p.z();
+            for (int d = 0; d < 3; ++d)
+                x(i, d) += noise(rng);
+        }
+        return x;
+    }
+
     // Several chunks (the parallel units) against the plain per-tet sum with the scalar
     // reference projections, and bitwise the same sums on 1 and 2 threads.
     TEST(LocalStep, ChunkedSumMatchesThePerTetSumOnAnyThreadCount)
@@ -142,18 +161,7 @@ namespace {
         LocalStep local(model);
         ASSERT_GT(local.num_chunks(), 4);
 
-        // A smooth bend and twist plus noise: some tets stretch, some compress, a few invert.
-        std::mt19937 rng(5);
-        std::normal_distribution<double> noise(0.0, 0.02);
-        MatX3 x = model.rest_positions();
-        for (Index i = 0; i < x.rows(); ++i) {
-            const Vec3 p = x.row(i).transpose();
-            const double a = 0.8 * p.z();
-            x.row(i) << std::cos(a) * p.x() - std::sin(a) * p.y() + 0.3 * p.z() * p.z(),
-                std::sin(a) * p.x() + std::cos(a) * p.y(), 1.1 * p.z();
-            for (int d = 0; d < 3; ++d)
-                x(i, d) += noise(rng);
-        }
+        const MatX3 x = bent_and_twisted(model.rest_positions());
 
         MatX3 expected = MatX3::Zero(model.num_nodes(), 3);
         for (Index e = 0; e < model.num_tets(); ++e) {
@@ -194,6 +202,43 @@ namespace {
         LocalStep third(model);
         third.accumulate(model, x, added);
         EXPECT_EQ(added, assembled);
+    }
+
+    // The body measures (vectorized exact projections) against their per-tet definition with
+    // the scalar reference projections, strain limits on.
+    TEST(MeasureBody, MatchesThePerTetDefinition)
+    {
+        test::GridTetOptions grid;
+        grid.nx = grid.ny = grid.nz = 5;
+        grid.jitter = 0.15;
+        const BakeData bake = test::make_identity_bake(grid);
+        Material material;
+        material.poisson_ratio = 0.45;
+        material.strain_limit_min = 0.9;
+        material.strain_limit_max = 1.1;
+        const Model model(bake, material, ModelOptions {});
+        State state = State::at_rest(model);
+        state.positions = bent_and_twisted(model.rest_positions());
+        VecX strain;
+        const BodyMeasures measures = measure_body(model, state, Vec3(0, -9.81, 0), &strain);
+
+        double energy = 0.0, max_strain = 0.0;
+        for (Index e = 0; e < model.num_tets(); ++e) {
+            const Mat3 f
+                = deformation_gradient(state.positions, model.tets(), model.dm_inverse(), e);
+            const TetProjection p = project_tet(
+                f, model.volume_tolerance(), material.strain_limit_min, material.strain_limit_max);
+            energy += model.rest_volumes()(e)
+                * (0.5 * model.strain_weight() * (f - p.rotation).squaredNorm()
+                    + 0.5 * model.volume_weight() * (f - p.volume).squaredNorm()
+                    + 0.5 * model.strain_limit_weight() * (f - p.limit).squaredNorm());
+            const Eigen::JacobiSVD<Mat3> svd(f - p.rotation);
+            EXPECT_NEAR(strain(e), svd.singularValues()(0), 1e-9) << e;
+            max_strain = std::max(max_strain, svd.singularValues()(0));
+        }
+        EXPECT_GT(model.strain_limit_weight(), 0.0);
+        EXPECT_NEAR(measures.elastic, energy, 1e-9 * energy);
+        EXPECT_NEAR(measures.max_strain, max_strain, 1e-9);
     }
 
 } // namespace
