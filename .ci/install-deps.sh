@@ -14,7 +14,7 @@ packages=(
     libsuitesparse-dev libopenblas0-pthread
     libassimp-dev
     libhdf5-dev
-    libcli11-dev libtbb-dev libspdlog-dev nlohmann-json3-dev
+    libcli11-dev libtbb-dev libspdlog-dev nlohmann-json3-dev libstb-dev
     libgtest-dev libbenchmark-dev
     clang-format
 )

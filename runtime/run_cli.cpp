@@ -1,12 +1,30 @@
 #include "runtime/run_cli.hpp"
 
 #include <cstdio>
+#include <string>
 
 #include "common/cli.hpp"
 #include "runtime/run_command.hpp"
 #include "runtime/scene/scene.hpp"
 
 namespace mat {
+
+namespace {
+
+    /// "WIDTHxHEIGHT" -> width, height; false unless both are positive integers.
+    bool parse_image_size(const std::string& text, int& width, int& height)
+    {
+        int w = 0, h = 0;
+        char x = 0, extra = 0;
+        if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || x != 'x' || w <= 0
+            || h <= 0)
+            return false;
+        width = w;
+        height = h;
+        return true;
+    }
+
+} // namespace
 
 int run_main(int argc, char** argv)
 {
@@ -17,6 +35,7 @@ int run_main(int argc, char** argv)
     add_common_options(app, common);
     RunOptions options;
     bool reference = false;
+    std::string preview_size = "640x480";
     app.add_option("scene", options.scene, "Scene file (JSON; see --scene-reference)")
         ->check(CLI::ExistingFile);
     app.add_option("-o,--output", options.output, "Output directory (created if missing)");
@@ -31,6 +50,11 @@ int run_main(int argc, char** argv)
     app.add_flag("--check-collisions", options.check_collisions,
         "After each step, compare the collision world's triangle pairs with an exhaustive check "
         "and measure the penetration (slow: for testing; results in the summary and --stats)");
+    app.add_flag("--preview", options.preview,
+        "Render each output frame to OUTDIR/preview/frame_NNNNN.png (fixed camera, flat shading, "
+        "a color per object) and, where ffmpeg is on PATH, assemble OUTDIR/preview.mp4");
+    app.add_option("--preview-size", preview_size, "Preview image size WIDTHxHEIGHT in pixels")
+        ->capture_default_str();
     app.add_flag("--scene-reference", reference,
         "Print every scene key with its type, default and doc (Markdown), then exit");
     return run_cli(app, argc, argv, [&] {
@@ -41,6 +65,9 @@ int run_main(int argc, char** argv)
         }
         if (options.scene.empty() || options.output.empty())
             throw CLI::RequiredError("mat-run needs SCENE and -o DIR");
+        if (!parse_image_size(preview_size, options.preview_width, options.preview_height))
+            throw CLI::ValidationError(
+                "--preview-size", "'" + preview_size + "' is not WIDTHxHEIGHT (e.g. 480x360)");
         run_simulation(options);
     });
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -17,6 +18,7 @@
 #include "runtime/output/collision_check.hpp"
 #include "runtime/output/exporter.hpp"
 #include "runtime/output/measures.hpp"
+#include "runtime/output/preview.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/simulation.hpp"
 
@@ -130,7 +132,8 @@ namespace {
     }
 
     std::string timing_table(const SolverTimings& t, double collision_seconds,
-        double export_seconds, double measure_seconds, double total_seconds, long steps)
+        double export_seconds, double preview_seconds, double measure_seconds, double total_seconds,
+        long steps)
     {
         struct Row {
             const char* phase;
@@ -144,6 +147,7 @@ namespace {
             { "collision (detection)", collision_seconds },
             { "collision (contact)", t.contact },
             { "export", export_seconds },
+            { "preview (--preview)", preview_seconds },
             { "measures (stats)", measure_seconds },
         };
         std::string text = fmt::format("{:<26}{:>10}{:>12}{:>8}\n", "phase", "s", "ms/step", "%");
@@ -187,6 +191,11 @@ void run_simulation(const RunOptions& options)
     const int frames = options.frames > 0 ? options.frames : scene.frames;
     if (options.output.empty())
         throw_error("mat-run needs an output directory (-o DIR)");
+    if (options.preview
+        && (options.preview_width < 16 || options.preview_height < 16
+            || options.preview_width > 8192 || options.preview_height > 8192))
+        throw_error("--preview-size {}x{}: each side must be 16 to 8192 pixels",
+            options.preview_width, options.preview_height);
     if (!options.stats.empty()) {
         const auto parent = std::filesystem::path(options.stats).parent_path();
         if (!parent.empty() && !std::filesystem::is_directory(parent))
@@ -210,6 +219,10 @@ void run_simulation(const RunOptions& options)
         { "steps_per_frame", scene.steps_per_frame }, { "frames", frames },
         { "threads", thread_count() } };
     Exporter exporter(simulation, scene.output, options.output, run_json.dump());
+    std::unique_ptr<PreviewWriter> preview;
+    if (options.preview)
+        preview = std::make_unique<PreviewWriter>(
+            simulation, options.output, options.preview_width, options.preview_height);
     const bool stats = !options.stats.empty();
     const bool measure = stats || exporter.wants_stretch();
     logger().info("{}: {} bodies, dt {} s, {} steps per frame, {} frames, {} iterations, {} "
@@ -220,7 +233,7 @@ void run_simulation(const RunOptions& options)
 
     std::vector<VecX> tet_strain(simulation.bodies().size());
     nlohmann::json frame_stats = nlohmann::json::array();
-    double export_seconds = 0.0, measure_seconds = 0.0;
+    double export_seconds = 0.0, preview_seconds = 0.0, measure_seconds = 0.0;
     SolverTimings before = total_timings(simulation);
     CollisionReport frame_collision, total_collision;
     CollisionCheckCounts frame_check, total_check;
@@ -254,6 +267,11 @@ void run_simulation(const RunOptions& options)
               exporter.write_frame(frame, simulation.time(), simulation, tet_strain);
               const double this_export = timer.seconds();
               export_seconds += this_export;
+              if (preview) {
+                  timer.restart();
+                  preview->write_frame(frame, simulation);
+                  preview_seconds += timer.seconds();
+              }
               if (stats) {
                   const SolverTimings now = total_timings(simulation);
                   nlohmann::json entry { { "frame", frame }, { "time", simulation.time() },
@@ -313,16 +331,22 @@ void run_simulation(const RunOptions& options)
     Timer finish_timer;
     exporter.finish();
     export_seconds += finish_timer.seconds();
+    if (preview) {
+        finish_timer.restart();
+        preview->write_movie(1.0 / scene.frame_interval());
+        preview_seconds += finish_timer.seconds();
+    }
     const double loop_seconds = loop.seconds();
 
     const SolverTimings timings = total_timings(simulation);
     const long steps = simulation.steps();
     std::printf("simulated %.4g s in %ld steps (%d frames, %ld files) in %.3f s, setup %.3f s, "
                 "peak RSS %.0f MB\n",
-        simulation.time(), steps, frames, exporter.files_written(), loop_seconds, setup_seconds,
-        peak_rss_bytes() / 1e6);
+        simulation.time(), steps, frames,
+        exporter.files_written() + (preview ? preview->files_written() : 0), loop_seconds,
+        setup_seconds, peak_rss_bytes() / 1e6);
     std::fputs(timing_table(timings, detection_seconds(total_collision), export_seconds,
-                   measure_seconds, loop_seconds, steps)
+                   preview_seconds, measure_seconds, loop_seconds, steps)
                    .c_str(),
         stdout);
     if (options.check_collisions)

@@ -15,6 +15,11 @@ struct RunOptions {
     /// After each step, compare the collision world's triangle pairs with the exhaustive ground
     /// truth and measure the penetration (runtime/output/collision_check.hpp).
     bool check_collisions = false;
+    /// Render every output frame to OUTDIR/preview/frame_fffff.png (runtime/output/preview.hpp)
+    /// and, where ffmpeg is on PATH, OUTDIR/preview.mp4.
+    bool preview = false;
+    int preview_width = 640; ///< pixels
+    int preview_height = 480; ///< pixels
 };
 
 /// Runs the scene. Throws mat::Error on bad input or a failing solve; files already written
