@@ -137,11 +137,13 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     const MatX3& nodes = *state.nodes;
     body.surface.resize(body.surface_view.num_vertices(), 3);
     body.surface_view.positions(nodes, body.surface);
-    if (state.q != nullptr) {
+    const bool from_q = state.q != nullptr
+        && (m_settings.bounds != RadiusUpdate::bound || !m_settings.bounds_from_positions);
+    if (from_q) {
         body.bounds.update(*state.q, m_settings.bounds);
     } else {
         embed(nodes, body.tets, body.medial_tet, body.medial_barycentric, body.sphere_centers);
-        body.bounds.update_from_positions(body.surface, body.sphere_centers);
+        body.bounds.update_from_positions(body.surface, body.sphere_centers, m_settings.bounds);
     }
 
     // World coordinates: x -> R x + t for the nodes and (in place) the surface.
@@ -158,24 +160,6 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
             surface.row(i) = (r * Vec3(surface.row(i).transpose()) + t).transpose();
     });
 
-    // Triangle boxes and unit normals.
-    const MatX3i& faces = body.surface_view.faces();
-    body.face_boxes.resize(static_cast<std::size_t>(faces.rows()));
-    body.face_normals.resize(faces.rows(), 3);
-    tbb::parallel_for(tbb::blocked_range<Index>(0, faces.rows(), 512), [&](const auto& range) {
-        for (Index f = range.begin(); f != range.end(); ++f) {
-            const Vec3 a = surface.row(faces(f, 0)).transpose();
-            const Vec3 b1 = surface.row(faces(f, 1)).transpose();
-            const Vec3 c = surface.row(faces(f, 2)).transpose();
-            body.face_boxes[static_cast<std::size_t>(f)]
-                = Box3(a.cwiseMin(b1).cwiseMin(c), a.cwiseMax(b1).cwiseMax(c));
-            const Vec3 n = (b1 - a).cross(c - a);
-            const double length = n.norm();
-            const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
-            body.face_normals.row(f) = unit.transpose();
-        }
-    });
-
     // The body's primitives in the world, radii grown by half the margin, and their boxes.
     for (Index p = 0; p < body.bounds.num_primitives(); ++p) {
         BroadPhaseItem item;
@@ -190,8 +174,17 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
                 prim.centers[i].array() - prim.radii[i], prim.centers[i].array() + prim.radii[i]));
             item.spheres[i] = body.collision.primitive_spheres(p, i);
         }
+        // A ball holding the primitive (it holds each sphere, so their convex hull), for a
+        // quick rejection before the exact test.
+        Vec3 mean = Vec3::Zero();
+        for (int i = 0; i < prim.count; ++i)
+            mean += prim.centers[i] / prim.count;
+        double reach = 0.0;
+        for (int i = 0; i < prim.count; ++i)
+            reach = std::max(reach, (prim.centers[i] - mean).norm() + prim.radii[i]);
         m_items.push_back(item);
         m_primitives.push_back(prim);
+        m_balls.emplace_back(mean.x(), mean.y(), mean.z(), reach);
     }
 }
 
@@ -215,6 +208,7 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     Timer timer;
     m_items.clear();
     m_primitives.clear();
+    m_balls.clear();
     for (std::size_t b = 0; b < m_bodies.size(); ++b)
         update_body(b, states[b], margin);
     m_report.bounds_seconds = timer.seconds();
@@ -248,6 +242,10 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
                 if ((a.body == b.body && !m_settings.self)
                     || (states[a.body].is_static && states[b.body].is_static))
                     continue;
+                const Eigen::Vector4d& ball_a = m_balls[static_cast<std::size_t>(i)];
+                const Eigen::Vector4d& ball_b = m_balls[static_cast<std::size_t>(j)];
+                if ((ball_a.head<3>() - ball_b.head<3>()).norm() > ball_a(3) + ball_b(3))
+                    continue;
                 m_hit[k] = primitives_intersect(m_primitives[static_cast<std::size_t>(i)],
                     m_primitives[static_cast<std::size_t>(j)]);
             }
@@ -279,8 +277,6 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         NarrowPhaseBody& view = m_views[b];
         view.surface = &body.surface;
         view.faces = &body.surface_view.faces();
-        view.face_boxes = &body.face_boxes;
-        view.face_normals = &body.face_normals;
         view.nodes = &body.nodes;
         view.face_indptr = &body.collision.face_primitives_indptr;
         view.face_list = &body.collision.face_primitives;
@@ -288,53 +284,24 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         view.node_list = &body.node_list;
         view.is_static = states[b].is_static;
     }
-    for (NarrowPhaseScratch& scratch : m_scratch)
-        scratch.clear();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_colliding.size(), 1),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-            NarrowPhaseScratch& scratch = m_scratch.local();
-            for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                const BroadPhaseItem& a = m_items[static_cast<std::size_t>(m_colliding[k].first)];
-                const BroadPhaseItem& b = m_items[static_cast<std::size_t>(m_colliding[k].second)];
-                narrow_phase_pair(m_views[static_cast<std::size_t>(a.body)], a.body, a.primitive,
-                    m_views[static_cast<std::size_t>(b.body)], b.body, b.primitive,
-                    a.box.intersection(b.box), margin, static_cast<int>(k), scratch);
-            }
-        });
-    // Merge: the union of the threads' pairs, sorted, whatever thread found which.
-    for (const NarrowPhaseScratch& scratch : m_scratch) {
-        m_report.triangle_tests += scratch.triangle_tests;
-        m_intersecting.insert(
-            m_intersecting.end(), scratch.intersecting.begin(), scratch.intersecting.end());
+    m_pair_refs.clear();
+    for (const auto& [i, j] : m_colliding) {
+        const BroadPhaseItem& a = m_items[static_cast<std::size_t>(i)];
+        const BroadPhaseItem& b = m_items[static_cast<std::size_t>(j)];
+        m_pair_refs.push_back(
+            { a.body, a.primitive, b.body, b.primitive, a.box.intersection(b.box) });
     }
-    std::sort(m_intersecting.begin(), m_intersecting.end());
-    m_intersecting.erase(
-        std::unique(m_intersecting.begin(), m_intersecting.end()), m_intersecting.end());
+    m_narrow.run(m_views, m_pair_refs, margin);
+    m_intersecting = m_narrow.intersecting();
+    m_report.triangle_tests = m_narrow.triangle_tests();
+    m_report.node_tests = m_narrow.node_tests();
     m_report.intersecting_triangles = static_cast<int>(m_intersecting.size());
 }
 
 void CollisionWorld::respond(const std::vector<CollisionBodyState>& states)
 {
-    // Per node, the candidate nearest its triangle; ties go to the lowest primitive pair. The
-    // sort key is a total order on the candidates, so the merge ignores the thread split.
-    m_candidates.clear();
-    for (const NarrowPhaseScratch& scratch : m_scratch)
-        m_candidates.insert(
-            m_candidates.end(), scratch.candidates.begin(), scratch.candidates.end());
-    std::sort(m_candidates.begin(), m_candidates.end(),
-        [](const NodeCandidate& x, const NodeCandidate& y) {
-            if (x.body != y.body)
-                return x.body < y.body;
-            if (x.node != y.node)
-                return x.node < y.node;
-            if (std::abs(x.distance) != std::abs(y.distance))
-                return std::abs(x.distance) < std::abs(y.distance);
-            return x.pair < y.pair;
-        });
-    for (std::size_t k = 0; k < m_candidates.size(); ++k) {
-        const NodeCandidate& hit = m_candidates[k];
-        if (k > 0 && m_candidates[k - 1].body == hit.body && m_candidates[k - 1].node == hit.node)
-            continue;
+    // One candidate per node (the nearest triangle), sorted by (body, node).
+    for (const NodeCandidate& hit : m_narrow.candidates()) {
         const CollisionBodyState& state = states[static_cast<std::size_t>(hit.body)];
         const bool other_dynamic = !states[static_cast<std::size_t>(hit.other_body)].is_static;
         // The separating plane: through the midpoint when both sides move, else on the other

@@ -208,8 +208,8 @@ void MedialBounds::update(const Eigen::Ref<const MatX3>& q, RadiusUpdate mode)
         });
 }
 
-void MedialBounds::update_from_positions(
-    const Eigen::Ref<const MatX3>& surface_positions, const Eigen::Ref<const MatX3>& sphere_centers)
+void MedialBounds::update_from_positions(const Eigen::Ref<const MatX3>& surface_positions,
+    const Eigen::Ref<const MatX3>& sphere_centers, RadiusUpdate mode)
 {
     if (surface_positions.rows() != m_vertices.size() || sphere_centers.rows() != num_spheres())
         throw_error("medial bounds: {} surface positions and {} sphere centers, expected {} and {}",
@@ -220,7 +220,9 @@ void MedialBounds::update_from_positions(
             for (Index p = range.begin(); p < range.end(); ++p) {
                 double increment = 0.0;
                 const int count = m_counts(p);
-                for (int at = m_vertex_begin(p); at < m_vertex_begin(p + 1); ++at) {
+                const int end
+                    = mode == RadiusUpdate::lazy ? m_vertex_begin(p) : m_vertex_begin(p + 1);
+                for (int at = m_vertex_begin(p); at < end; ++at) {
                     Vec3 center = Vec3::Zero();
                     double radius = 0.0;
                     for (int i = 0; i < count; ++i) {

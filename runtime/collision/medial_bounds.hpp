@@ -76,8 +76,9 @@ public:
     /// x' from `surface_positions`  #Vs x 3, t the vertex's sphere weights. Exact for the
     /// vertices only: each vertex lies in its enlarged sphere at t, and no smaller uniform
     /// increment achieves that; points of the surface between vertices are not covered.
+    /// `mode` lazy: the centers only, increments 0 (the other modes are the exact update).
     void update_from_positions(const Eigen::Ref<const MatX3>& surface_positions,
-        const Eigen::Ref<const MatX3>& sphere_centers);
+        const Eigen::Ref<const MatX3>& sphere_centers, RadiusUpdate mode = RadiusUpdate::bound);
 
     Index num_primitives() const { return m_counts.size(); }
     Index num_spheres() const { return m_rest_centers.rows(); }

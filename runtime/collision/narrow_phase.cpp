@@ -1,12 +1,18 @@
 #include "runtime/collision/narrow_phase.hpp"
 
+#include <algorithm>
 #include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "runtime/collision/triangle_tests.hpp"
 
 namespace mat {
 
 namespace {
+
+    using Item = NarrowPhase::Item;
 
     bool boxes_overlap(const Box3& a, const Box3& b)
     {
@@ -15,124 +21,410 @@ namespace {
             & (b.min().y() <= a.max().y()) & (b.min().z() <= a.max().z());
     }
 
-    /// Whether p lies in `box` grown by `grow` on every side.
-    bool contains_grown(const Box3& box, const Vec3& p, double grow)
-    {
-        return (p.x() >= box.min().x() - grow) & (p.x() <= box.max().x() + grow)
-            & (p.y() >= box.min().y() - grow) & (p.y() <= box.max().y() + grow)
-            & (p.z() >= box.min().z() - grow) & (p.z() <= box.max().z() + grow);
-    }
-
-    /// The faces of primitive p whose boxes meet `region`, in CSR order.
-    void faces_in_region(
-        const NarrowPhaseBody& body, int p, const Box3& region, std::vector<int>& out)
-    {
-        out.clear();
-        const VecXi& indptr = *body.face_indptr;
-        const VecXi& list = *body.face_list;
-        const std::vector<Box3>& boxes = *body.face_boxes;
-        for (int j = indptr(p); j < indptr(p + 1); ++j) {
-            const int f = list(j);
-            if (boxes_overlap(boxes[static_cast<std::size_t>(f)], region))
-                out.push_back(f);
-        }
-    }
-
     Vec3 corner(const NarrowPhaseBody& body, int f, int c)
     {
         return body.surface->row((*body.faces)(f, c)).transpose();
     }
 
-    /// Nodes of primitive `prim_a` of `a` inside `region` against the triangles `faces_b` of `b`:
-    /// per node, the triangle with the smallest unsigned distance (the first in list order on a
-    /// tie) among those within the margin or behind.
-    void nodes_against(const NarrowPhaseBody& a, int body_a, int prim_a, const NarrowPhaseBody& b,
-        int body_b, const std::vector<int>& faces_b, const Box3& region, double margin, int pair,
-        NarrowPhaseScratch& scratch)
+    Box3 face_box(const NarrowPhaseBody& body, int f)
     {
-        if (a.is_static || faces_b.empty())
-            return;
-        const VecXi& indptr = *a.node_indptr;
-        const std::vector<Box3>& boxes = *b.face_boxes;
-        for (int k = indptr(prim_a); k < indptr(prim_a + 1); ++k) {
-            const int node = (*a.node_list)(k);
-            const Vec3 x = a.nodes->row(node).transpose();
-            if (!contains_grown(region, x, 0.0))
-                continue;
-            NodeCandidate best;
-            bool found = false;
-            for (const int f : faces_b) {
-                if (!contains_grown(boxes[static_cast<std::size_t>(f)], x, margin))
-                    continue;
-                const PointTriangleClosest closest
-                    = point_triangle_closest(x, corner(b, f, 0), corner(b, f, 1), corner(b, f, 2));
-                const Vec3 n = b.face_normals->row(f).transpose();
-                const double distance = std::sqrt(closest.squared_distance);
-                const double signed_distance
-                    = n.dot(x - closest.point) < 0.0 ? -distance : distance;
-                if (signed_distance >= margin)
-                    continue;
-                if (!found || std::abs(signed_distance) < std::abs(best.distance)) {
-                    best.distance = signed_distance;
-                    best.closest = closest.point;
-                    best.normal = n;
-                    found = true;
-                }
-            }
-            if (found) {
-                best.body = body_a;
-                best.node = node;
-                best.pair = pair;
-                best.other_body = body_b;
-                scratch.candidates.push_back(best);
-            }
-        }
+        const Vec3 a = corner(body, f, 0);
+        const Vec3 b = corner(body, f, 1);
+        const Vec3 c = corner(body, f, 2);
+        return Box3(a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c));
+    }
+
+    std::uint64_t pair_key(int a, int b)
+    {
+        const int lo = std::min(a, b);
+        const int hi = std::max(a, b);
+        return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(lo)) << 32)
+            | static_cast<std::uint32_t>(hi);
+    }
+
+    template <class T> void sort_unique(std::vector<T>& v)
+    {
+        std::sort(v.begin(), v.end());
+        v.erase(std::unique(v.begin(), v.end()), v.end());
     }
 
 } // namespace
 
-void narrow_phase_pair(const NarrowPhaseBody& a, int body_a, int prim_a, const NarrowPhaseBody& b,
-    int body_b, int prim_b, const Box3& region, double margin, int pair,
-    NarrowPhaseScratch& scratch)
+void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
 {
-    const Box3 grown(region.min().array() - margin, region.max().array() + margin);
-    if (grown.isEmpty())
-        return;
-    faces_in_region(a, prim_a, grown, scratch.faces_a);
-    faces_in_region(b, prim_b, grown, scratch.faces_b);
-    const std::vector<Box3>& boxes_a = *a.face_boxes;
-    const std::vector<Box3>& boxes_b = *b.face_boxes;
-    const MatX3i& faces_a = *a.faces;
-    const MatX3i& faces_b = *b.faces;
-    const bool same_body = body_a == body_b;
+    m_bodies.resize(bodies.size());
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        const NarrowPhaseBody& body = bodies[b];
+        BodyData& data = m_bodies[b];
+        const Index num_primitives = body.face_indptr->size() - 1;
+        if (static_cast<Index>(data.stamp.size()) == num_primitives
+            && static_cast<Index>(data.face_stamp.size()) == body.faces->rows()
+            && data.node_primitive.size() == body.nodes->rows())
+            continue;
+        // First run for this body: sizes and the inverse maps (face -> primitives, node ->
+        // primitive).
+        data.stamp.assign(static_cast<std::size_t>(num_primitives), -1);
+        data.region.assign(static_cast<std::size_t>(num_primitives), Box3());
+        data.face_stamp.assign(static_cast<std::size_t>(body.faces->rows()), -1);
+        const VecXi& indptr = *body.face_indptr;
+        const VecXi& list = *body.face_list;
+        data.face_primitive_indptr = VecXi::Zero(body.faces->rows() + 1);
+        for (Index j = 0; j < list.size(); ++j)
+            ++data.face_primitive_indptr(list(j) + 1);
+        for (Index f = 0; f < body.faces->rows(); ++f)
+            data.face_primitive_indptr(f + 1) += data.face_primitive_indptr(f);
+        data.face_primitives.resize(list.size());
+        VecXi fill = data.face_primitive_indptr.head(body.faces->rows());
+        for (Index p = 0; p < num_primitives; ++p)
+            for (int j = indptr(p); j < indptr(p + 1); ++j)
+                data.face_primitives(fill(list(j))++) = static_cast<int>(p);
+        data.node_primitive = VecXi::Constant(body.nodes->rows(), -1);
+        for (Index p = 0; p < num_primitives; ++p)
+            for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j)
+                data.node_primitive((*body.node_list)(j)) = static_cast<int>(p);
+        data.faces.reserve(static_cast<std::size_t>(body.faces->rows()));
+        data.nodes.reserve(static_cast<std::size_t>(body.node_list->size()));
+        data.partners.reserve(bodies.size());
+        data.active.reserve(static_cast<std::size_t>(num_primitives));
+    }
+}
 
-    // Triangle-triangle tests among the triangles in the region (box-filtered).
-    for (const int fa : scratch.faces_a) {
-        const Box3& box_a = boxes_a[static_cast<std::size_t>(fa)];
-        for (const int fb : scratch.faces_b) {
-            if (same_body) {
-                bool shared = fa == fb;
-                for (int u = 0; u < 3; ++u)
-                    for (int v = 0; v < 3; ++v)
-                        shared |= faces_a(fa, u) == faces_b(fb, v);
-                if (shared)
+void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
+    const std::vector<PrimitivePairRef>& pairs, double margin)
+{
+    ++m_run;
+    for (BodyData& data : m_bodies) {
+        data.active.clear();
+        data.faces.clear();
+        data.nodes.clear();
+        data.partners.clear();
+        data.self_pairs.clear();
+    }
+    // Each primitive's region: the union of its pairs' regions grown by the margin.
+    const auto extend = [&](int body, int primitive, const Box3& region) {
+        BodyData& data = m_bodies[static_cast<std::size_t>(body)];
+        const std::size_t p = static_cast<std::size_t>(primitive);
+        if (data.stamp[p] != m_run) {
+            data.stamp[p] = m_run;
+            data.region[p] = region;
+            data.active.push_back(primitive);
+        } else {
+            data.region[p].extend(region);
+        }
+    };
+    for (const PrimitivePairRef& pair : pairs) {
+        const Box3 region(pair.region.min().array() - margin, pair.region.max().array() + margin);
+        if (region.isEmpty())
+            continue;
+        extend(pair.body_a, pair.primitive_a, region);
+        extend(pair.body_b, pair.primitive_b, region);
+        m_bodies[static_cast<std::size_t>(pair.body_a)].partners.push_back(pair.body_b);
+        m_bodies[static_cast<std::size_t>(pair.body_b)].partners.push_back(pair.body_a);
+        if (pair.body_a == pair.body_b)
+            m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
+                pair_key(pair.primitive_a, pair.primitive_b));
+    }
+    // The active triangles and nodes: those of an active primitive inside its region (a
+    // triangle enclosed by several primitives is taken once). In parallel over the bodies.
+    const auto for_each_body = [&](const auto& work) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_bodies.size(), 1),
+            [&](const tbb::blocked_range<std::size_t>& range) {
+                for (std::size_t b = range.begin(); b != range.end(); ++b)
+                    work(bodies[b], m_bodies[b]);
+            });
+    };
+    for_each_body([&](const NarrowPhaseBody& body, BodyData& data) {
+        data.box = Box3();
+        for (const int p : data.active) {
+            const Box3& region = data.region[static_cast<std::size_t>(p)];
+            for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
+                const int f = (*body.face_list)(j);
+                int& stamp = data.face_stamp[static_cast<std::size_t>(f)];
+                if (stamp == m_run)
                     continue;
+                const Box3 box = face_box(body, f);
+                if (boxes_overlap(box, region)) {
+                    stamp = m_run;
+                    data.faces.push_back({ box, f });
+                    data.box.extend(box);
+                }
             }
-            if (!boxes_overlap(box_a, boxes_b[static_cast<std::size_t>(fb)]))
+            if (body.is_static)
                 continue;
-            ++scratch.triangle_tests;
-            if (triangles_intersect(corner(a, fa, 0), corner(a, fa, 1), corner(a, fa, 2),
-                    corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2))) {
-                const bool a_first = body_a < body_b || (body_a == body_b && fa < fb);
-                scratch.intersecting.push_back(a_first ? FacePair { body_a, fa, body_b, fb }
-                                                       : FacePair { body_b, fb, body_a, fa });
+            for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j) {
+                const int node = (*body.node_list)(j);
+                const Vec3 x = body.nodes->row(node).transpose();
+                if (region.contains(x))
+                    data.nodes.push_back({ Box3(x, x), node });
             }
         }
+    });
+    // The sweep axis: the longest side of the active triangles' box. Across it, a grid of
+    // columns (cells at least as wide as the widest triangle, so that a triangle is filed in the
+    // column of its low corner and looked up in the neighbouring ones); within a column, the
+    // triangles are sorted along the sweep axis.
+    Box3 all;
+    for (const BodyData& data : m_bodies)
+        all.extend(data.box);
+    m_axis = 0;
+    if (!all.isEmpty())
+        all.sizes().maxCoeff(&m_axis);
+    const int axis = m_axis;
+    const int u = (axis + 1) % 3;
+    const int v = (axis + 2) % 3;
+    for_each_body([&](const NarrowPhaseBody&, BodyData& data) {
+        const Box3& box = data.box;
+        Vec3 width = Vec3::Zero();
+        for (const Item& item : data.faces)
+            width = width.cwiseMax(item.box.sizes());
+        data.face_width = width(axis);
+        data.width_u = width(u);
+        data.width_v = width(v);
+        data.origin_u = box.isEmpty() ? 0.0 : box.min()(u);
+        data.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
+        const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
+        const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
+        // Columns: no narrower than the widest triangle, at most max_columns per side.
+        constexpr int max_columns = 64;
+        data.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
+        data.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
+        const auto count = [](double size, double cell) {
+            const double n = size / cell; // NaN with non-finite positions: 1 column
+            if (!(n >= 0.0))
+                return 1;
+            return n < max_columns ? static_cast<int>(n) + 1 : max_columns;
+        };
+        data.columns_u = count(size_u, data.cell_u);
+        data.columns_v = count(size_v, data.cell_v);
+        // Counting sort by column, then each column along the sweep axis.
+        const int columns = data.columns_u * data.columns_v;
+        data.column_start.assign(static_cast<std::size_t>(columns + 1), 0);
+        for (Item& item : data.faces) {
+            item.column = data.column(item.box.min()(u), item.box.min()(v));
+            ++data.column_start[static_cast<std::size_t>(item.column + 1)];
+        }
+        for (int c = 0; c < columns; ++c)
+            data.column_start[static_cast<std::size_t>(c + 1)]
+                += data.column_start[static_cast<std::size_t>(c)];
+        data.fill.assign(data.column_start.begin(), data.column_start.end() - 1);
+        data.sorted.resize(data.faces.size());
+        for (const Item& item : data.faces)
+            data.sorted[static_cast<std::size_t>(
+                data.fill[static_cast<std::size_t>(item.column)]++)]
+                = item;
+        std::swap(data.faces, data.sorted);
+        for (int c = 0; c < columns; ++c)
+            std::sort(data.faces.begin() + data.column_start[static_cast<std::size_t>(c)],
+                data.faces.begin() + data.column_start[static_cast<std::size_t>(c + 1)],
+                [axis](const Item& x, const Item& y) {
+                    return x.box.min()[axis] < y.box.min()[axis]
+                        || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
+                });
+        data.keys.resize(data.faces.size());
+        for (std::size_t k = 0; k < data.faces.size(); ++k)
+            data.keys[k] = data.faces[k].box.min()[axis];
+        sort_unique(data.partners);
+        sort_unique(data.self_pairs);
+    });
+}
+
+bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const
+{
+    const BodyData& data = m_bodies[static_cast<std::size_t>(body)];
+    const auto colliding = [&](int pa, int pb) {
+        return std::binary_search(data.self_pairs.begin(), data.self_pairs.end(), pair_key(pa, pb));
+    };
+    const VecXi& indptr = data.face_primitive_indptr;
+    for (int j = indptr(face_b); j < indptr(face_b + 1); ++j) {
+        const int pb = data.face_primitives(j);
+        if (node_a) {
+            if (colliding(data.node_primitive(face_a), pb))
+                return true;
+            continue;
+        }
+        for (int i = indptr(face_a); i < indptr(face_a + 1); ++i)
+            if (colliding(data.face_primitives(i), pb))
+                return true;
+    }
+    return false;
+}
+
+template <class Visit>
+void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visit& visit) const
+{
+    // The triangles that can overlap have their low corner in the columns from (box low -
+    // grow - widest triangle) to (box high + grow), and in each column, their low end on the
+    // sweep axis in the same range.
+    const BodyData& data = m_bodies[static_cast<std::size_t>(body)];
+    if (data.faces.empty())
+        return;
+    const Box3 grown(box.min().array() - grow, box.max().array() + grow);
+    if (!boxes_overlap(grown, data.box))
+        return;
+    const int axis = m_axis;
+    const int u = (axis + 1) % 3;
+    const int v = (axis + 2) % 3;
+    const auto index = [](double x, double origin, double cell, int count) {
+        const double at = std::floor((x - origin) / cell);
+        return !(at >= 0.0) ? 0 : at >= count - 1 ? count - 1 : static_cast<int>(at); // NaN: 0
+    };
+    const int u0 = index(grown.min()(u) - data.width_u, data.origin_u, data.cell_u, data.columns_u);
+    const int u1 = index(grown.max()(u), data.origin_u, data.cell_u, data.columns_u);
+    const int v0 = index(grown.min()(v) - data.width_v, data.origin_v, data.cell_v, data.columns_v);
+    const int v1 = index(grown.max()(v), data.origin_v, data.cell_v, data.columns_v);
+    const double from = grown.min()[axis] - data.face_width;
+    const double to = grown.max()[axis];
+    for (int cv = v0; cv <= v1; ++cv)
+        for (int cu = u0; cu <= u1; ++cu) {
+            const int c = cv * data.columns_u + cu;
+            const int begin = data.column_start[static_cast<std::size_t>(c)];
+            const int end = data.column_start[static_cast<std::size_t>(c + 1)];
+            if (begin == end)
+                continue;
+            const double* keys = data.keys.data();
+            for (int k = static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
+                 k < end && keys[k] <= to; ++k) {
+                const Item& item = data.faces[static_cast<std::size_t>(k)];
+                if (boxes_overlap(item.box, grown))
+                    visit(item.index);
+            }
+        }
+}
+
+void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
+    const std::vector<PrimitivePairRef>& pairs, double margin)
+{
+    prepare(bodies);
+    activate(bodies, pairs, margin);
+    for (Scratch& scratch : m_scratch) {
+        scratch.intersecting.clear();
+        scratch.triangle_tests = 0;
+        scratch.node_tests = 0;
     }
 
-    // Nodes of each primitive against the triangles of the other.
-    nodes_against(a, body_a, prim_a, b, body_b, scratch.faces_b, grown, margin, pair, scratch);
-    nodes_against(b, body_b, prim_b, a, body_a, scratch.faces_a, grown, margin, pair, scratch);
+    // Triangle pairs: each active triangle against the later bodies' active triangles (and its
+    // own body's later ones, for self pairs) whose boxes overlap its box.
+    m_work.clear();
+    m_node_work.clear();
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        for (std::size_t i = 0; i < m_bodies[b].faces.size(); ++i)
+            m_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
+        for (std::size_t i = 0; i < m_bodies[b].nodes.size(); ++i)
+            m_node_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
+    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_work.size(), 32),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            Scratch& scratch = m_scratch.local();
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                const int ba = m_work[k][0];
+                const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
+                const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
+                const int fa = item.index;
+                const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
+                const Vec3 a0 = corner(a, fa, 0);
+                const Vec3 a1 = corner(a, fa, 1);
+                const Vec3 a2 = corner(a, fa, 2);
+                for (const int bb : data.partners) {
+                    if (bb < ba)
+                        continue;
+                    const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
+                    overlapping(bb, item.box, 0.0, [&](int fb) {
+                        if (bb == ba) {
+                            if (fb <= fa)
+                                return;
+                            bool shared = false;
+                            for (int u = 0; u < 3; ++u)
+                                for (int v = 0; v < 3; ++v)
+                                    shared |= (*a.faces)(fa, u) == (*b.faces)(fb, v);
+                            if (shared || !self_pair_allowed(ba, fa, fb, false))
+                                return;
+                        }
+                        ++scratch.triangle_tests;
+                        if (triangles_intersect(
+                                a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
+                            scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
+                    });
+                }
+            }
+        });
+
+    // Nodes: against the triangles of every partner body whose box grown by the margin holds
+    // them; the nearest within the margin (or behind) wins, ties to the lowest (body, face).
+    m_node_best.resize(m_node_work.size());
+    m_node_found.assign(m_node_work.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_node_work.size(), 16),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            Scratch& scratch = m_scratch.local();
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                const int bn = m_node_work[k][0];
+                const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
+                const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
+                const Vec3 x = item.box.min();
+                NodeCandidate& best = m_node_best[k];
+                bool found = false;
+                for (const int bf : data.partners) {
+                    const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
+                    overlapping(bf, item.box, margin, [&](int f) {
+                        if (bf == bn && !self_pair_allowed(bn, item.index, f, true))
+                            return;
+                        ++scratch.node_tests;
+                        const Vec3 p0 = corner(other, f, 0);
+                        const Vec3 p1 = corner(other, f, 1);
+                        const Vec3 p2 = corner(other, f, 2);
+                        const Vec3 n = (p1 - p0).cross(p2 - p0);
+                        const double length = n.norm();
+                        // In front of the triangle's plane by the margin or more: so is its
+                        // closest point (which lies in the plane), and the node is no candidate.
+                        if (length > 0.0 && n.dot(x - p0) >= margin * length)
+                            return;
+                        const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
+                        const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+                        const double distance = std::sqrt(closest.squared_distance);
+                        const double signed_distance
+                            = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
+                        if (signed_distance >= margin)
+                            return;
+                        const double d = std::abs(signed_distance);
+                        const double d_best = std::abs(best.distance);
+                        if (found
+                            && (d > d_best
+                                || (d == d_best
+                                    && std::make_pair(bf, f)
+                                        > std::make_pair(best.other_body, best.face))))
+                            return;
+                        best.body = bn;
+                        best.node = item.index;
+                        best.other_body = bf;
+                        best.face = f;
+                        best.distance = signed_distance;
+                        best.closest = closest.point;
+                        best.normal = unit;
+                        found = true;
+                    });
+                }
+                m_node_found[k] = found;
+            }
+        });
+
+    // Merge, in an order that ignores the thread split.
+    m_intersecting.clear();
+    m_triangle_tests = 0;
+    m_node_tests = 0;
+    for (const Scratch& scratch : m_scratch) {
+        m_intersecting.insert(
+            m_intersecting.end(), scratch.intersecting.begin(), scratch.intersecting.end());
+        m_triangle_tests += scratch.triangle_tests;
+        m_node_tests += scratch.node_tests;
+    }
+    std::sort(m_intersecting.begin(), m_intersecting.end());
+    m_candidates.clear();
+    for (std::size_t k = 0; k < m_node_work.size(); ++k)
+        if (m_node_found[k])
+            m_candidates.push_back(m_node_best[k]);
+    std::sort(m_candidates.begin(), m_candidates.end(),
+        [](const NodeCandidate& x, const NodeCandidate& y) {
+            return std::make_pair(x.body, x.node) < std::make_pair(y.body, y.node);
+        });
 }
 
 } // namespace mat

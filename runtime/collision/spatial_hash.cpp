@@ -94,7 +94,10 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
             throw_error("spatial hash: item {} (body {}, primitive {}) has a NaN box coordinate", i,
                 items[i].body, items[i].primitive);
     m_slots.resize(n);
+    m_body_major = true;
     for (std::size_t i = 0; i < n; ++i) {
+        if (i > 0 && items[i].body < items[i - 1].body)
+            m_body_major = false;
         Slot& slot = m_slots[i];
         slot.box = items[i].box;
         slot.body = items[i].body;
@@ -206,6 +209,7 @@ void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
         return;
     const std::size_t first = out.size();
     const bool self = m_settings.self_pairs;
+    const bool skip_own_body = !self && m_body_major;
     const auto consider = [&](int j) {
         const Slot& b = m_slots[static_cast<std::size_t>(j)];
         if (boxes_overlap(a.box, b.box) && (self || a.body != b.body)
@@ -231,6 +235,10 @@ void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
                 // of the intersection of the two boxes (a cell both boxes cover).
                 auto it = std::upper_bound(
                     begin, end, i, [](int item, const Entry& e) { return item < e.item; });
+                // Without self pairs, items numbered body by body: skip to the later bodies.
+                if (skip_own_body)
+                    it = std::upper_bound(
+                        it, end, a.body, [](int body, const Entry& e) { return body < e.body; });
                 for (; it != end; ++it) {
                     // One branch for both tests (each alone is a coin toss for the predictor).
                     const bool canonical = (std::max(a.lo[0], it->lo[0]) == x)

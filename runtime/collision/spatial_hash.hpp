@@ -12,6 +12,10 @@
 // list that is checked against every item. A pair sharing several cells is reported once, from
 // the cell that holds the low corner of the boxes' intersection.
 //
+// Without self pairs, and with the items numbered body by body (as the collision world does), the
+// scan of a bucket skips to the entries of the later bodies: the buckets away from contact, which
+// hold one body, cost a binary search each.
+//
 // Results are sorted and unique and do not depend on the thread count. Buffers are members and
 // are reused from one call to the next.
 
@@ -106,6 +110,7 @@ private:
 
     SpatialHashSettings m_settings;
     double m_cell_size = 0.0;
+    bool m_body_major = true; ///< the items' bodies do not decrease (then a bucket is body-major)
     std::vector<Slot> m_slots; ///< per item
     std::vector<int> m_oversize; ///< oversize items, increasing
     std::uint64_t m_mask = 0; ///< table size - 1 (a power of two)

@@ -153,10 +153,10 @@ namespace {
             value_key(S::solver, "collision", T::string, &SolverSettings::collision)
                 .set_default("off")
                 .set_choices({ "bounded", "lazy", "off" })
-                .set_doc("collision between objects (work in progress, off by default: its "
-                         "narrow phase is still slow): medial primitives enlarged by the "
-                         "conservative bound, moved only (lazy, misses under large deformation), "
-                         "or none"),
+                .set_doc("collision between objects (off by default while contact between "
+                         "reduced bodies is being made robust): medial primitives enlarged to "
+                         "enclose the deformed surface (bounded), moved only (lazy, can miss "
+                         "under large deformation), or none"),
             value_key(S::solver, "self_collision", T::string, &SolverSettings::self_collision)
                 .set_default("off")
                 .set_choices({ "on", "off" })

@@ -1,9 +1,10 @@
 // Per-step cost of the collision world on a scene in contact (issue 5):
 //   collision_bench SCENE.json [STEPS] [REPEATS]
 // Runs the scene's first STEPS steps (semi-reduced solver, with the scene's collision), then
-// times REPEATS detect() calls on the final state for: the medial pipeline with the bound, the
-// same with all-pairs primitive testing (the reference code's broad phase), the lazy update,
-// and a triangle-only broad phase (CGAL box_intersection_d over every triangle, one thread).
+// times REPEATS detect() calls on the final state for: the medial pipeline with the default
+// bounds (exact per-vertex increments from the positions), the same with the handle bound from
+// q, with all-pairs primitive testing (the reference code's broad phase), the lazy update, and a
+// triangle-only broad phase (CGAL box_intersection_d over every triangle, one thread).
 // Prints wall ms per phase, process CPU ms per call (all threads), the ratios, and how many of
 // the ground truth's intersecting triangle pairs (between the first two bodies) each misses.
 
@@ -69,6 +70,7 @@ Timing time_world(CollisionWorld& world, const std::vector<CollisionBodyState>& 
     t.mean.primitive_candidates = last.primitive_candidates;
     t.mean.primitive_pairs = last.primitive_pairs;
     t.mean.triangle_tests = last.triangle_tests;
+    t.mean.node_tests = last.node_tests;
     t.mean.intersecting_triangles = last.intersecting_triangles;
     t.mean.contacts = last.contacts;
     t.mean.max_penetration = last.max_penetration;
@@ -87,11 +89,12 @@ Timing time_world(CollisionWorld& world, const std::vector<CollisionBodyState>& 
 void print_row(const char* name, const Timing& t)
 {
     const CollisionReport& m = t.mean;
-    std::printf("%-22s %7.3f %7.3f %7.3f %7.3f %8.3f | %8.3f %8.3f | %6d %6d %8ld %6d %6d %7ld\n",
+    std::printf(
+        "%-22s %7.3f %7.3f %7.3f %7.3f %8.3f | %8.3f %8.3f | %6d %6d %8ld %8ld %6d %6d %7ld\n",
         name, 1e3 * m.bounds_seconds, 1e3 * m.hash_seconds, 1e3 * m.primitive_seconds,
         1e3 * m.triangle_seconds, 1e3 * m.response_seconds, t.wall_ms, t.cpu_ms,
-        m.primitive_candidates, m.primitive_pairs, m.triangle_tests, m.intersecting_triangles,
-        m.contacts, t.missed);
+        m.primitive_candidates, m.primitive_pairs, m.triangle_tests, m.node_tests,
+        m.intersecting_triangles, m.contacts, t.missed);
 }
 
 int run(int argc, char** argv)
@@ -100,7 +103,7 @@ int run(int argc, char** argv)
         std::fprintf(stderr, "usage: collision_bench SCENE.json [STEPS] [REPEATS]\n");
         return 2;
     }
-    const int steps = argc > 2 ? std::atoi(argv[2]) : 40;
+    const int steps = argc > 2 ? std::atoi(argv[2]) : 25;
     const int repeats = argc > 3 ? std::atoi(argv[3]) : 50;
     const Scene scene = read_scene(argv[1]);
     MAT_CHECK(scene.objects.size() >= 2, "{}: the benchmark needs two objects", argv[1]);
@@ -119,8 +122,9 @@ int run(int argc, char** argv)
         if (const auto* semi = dynamic_cast<const SemiReducedSolver*>(body.solver.get()))
             states[b].q = &semi->reduced_coordinates();
     }
-    const auto make = [&](RadiusUpdate bounds, bool all_pairs) {
+    const auto make = [&](RadiusUpdate bounds, bool all_pairs, bool from_positions = true) {
         CollisionSettings settings;
+        settings.bounds_from_positions = from_positions;
         settings.self = scene.solver.self_collision == "on";
         settings.margin = scene.solver.collision_margin;
         settings.bounds = bounds;
@@ -147,11 +151,14 @@ int run(int argc, char** argv)
         std::printf(" %ld", static_cast<long>(bake.collision.primitive_kind.size()));
     std::printf(
         "; ground truth: %zu intersecting triangle pairs between bodies 0 and 1\n", truth.size());
-    std::printf("%-22s %7s %7s %7s %7s %8s | %8s %8s | %6s %6s %8s %6s %6s %7s\n", "ms per step",
-        "bounds", "hash", "prims", "tris", "response", "wall*", "cpu*", "cand", "pairs", "tritests",
-        "inter", "contct", "missed");
+    std::printf("%-22s %7s %7s %7s %7s %8s | %8s %8s | %6s %6s %8s %8s %6s %6s %7s\n",
+        "ms per step", "bounds", "hash", "prims", "tris", "response", "wall*", "cpu*", "cand",
+        "pairs", "tritests", "nodetest", "inter", "contct", "missed");
     const Timing t_bounded = time_world(bounded, states, repeats, truth);
     print_row("medial, bounded", t_bounded);
+    CollisionWorld q_bound = make(RadiusUpdate::bound, false, false);
+    const Timing t_q_bound = time_world(q_bound, states, repeats, truth);
+    print_row("medial, q-bound", t_q_bound);
     CollisionWorld all = make(RadiusUpdate::bound, true);
     const Timing t_all = time_world(all, states, repeats, truth);
     print_row("(a) all-pairs prims", t_all);
@@ -176,9 +183,20 @@ int run(int argc, char** argv)
         t_all.wall_ms / t_bounded.wall_ms, t_all.cpu_ms / t_bounded.cpu_ms);
     std::printf("ratio (b) CGAL triangles / bounded: wall %.2f, cpu %.2f\n",
         cgal_wall / t_bounded.wall_ms, cgal_cpu / t_bounded.cpu_ms);
-    std::printf(
-        "missed intersecting triangle pairs vs ground truth: bounded %ld, lazy %ld (of %zu)\n",
-        t_bounded.missed, t_lazy.missed, truth.size());
+    std::printf("missed intersecting triangle pairs vs ground truth: bounded %ld, q-bound %ld, "
+                "lazy %ld (of %zu)\n",
+        t_bounded.missed, t_q_bound.missed, t_lazy.missed, truth.size());
+    // The radius increments of the two bounds, relative to the body's rest diagonal.
+    for (int b = 0; b < 2; ++b) {
+        const MatX3& rest = bakes[static_cast<std::size_t>(b)].tet_mesh.positions;
+        const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+        const VecX& exact = bounded.bounds(b).increments();
+        const VecX& bound = q_bound.bounds(b).increments();
+        std::printf("body %d radius increments / diagonal: exact per-vertex mean %.5f max %.5f; "
+                    "q-bound mean %.5f max %.5f\n",
+            b, exact.mean() / diagonal, exact.maxCoeff() / diagonal, bound.mean() / diagonal,
+            bound.maxCoeff() / diagonal);
+    }
     return 0;
 }
 

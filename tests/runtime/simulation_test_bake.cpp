@@ -1,20 +1,13 @@
 #include "tests/runtime/simulation_test_bake.hpp"
 
 #include "formats/bake_io.hpp"
-#include "preprocess/bake/bake_pipeline.hpp"
+#include "tests/support/sample_bake.hpp"
 
 namespace mat::test {
 
 std::string write_capsule_bake(const std::string& path)
 {
-    static const BakeData bake = [] {
-        BakeOptions options;
-        options.surface = std::string(MAT_SAMPLES_DIR) + "/capsule/capsule.obj";
-        options.medial = std::string(MAT_SAMPLES_DIR) + "/capsule/capsule.ma";
-        options.tet_size = 0.1;
-        BakeReport report;
-        return run_bake(options, report);
-    }();
+    const BakeData& bake = sample_bake("capsule", 0.1);
     write_bake(path, bake);
     return path;
 }

@@ -8,28 +8,21 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <string>
 
 #include <tbb/task_arena.h>
 
-#include "preprocess/bake/bake_pipeline.hpp"
 #include "runtime/collision/ground_truth.hpp"
 #include "tests/support/allocation_counter.hpp"
+#include "tests/support/sample_bake.hpp"
 
 namespace mat {
 namespace {
 
     const BakeData& creature_bake()
     {
-        static const BakeData bake = [] {
-            BakeOptions options;
-            options.surface = std::string(MAT_SAMPLES_DIR) + "/creature/creature.obj";
-            options.medial = std::string(MAT_SAMPLES_DIR) + "/creature/creature.ma";
-            options.tet_size = 0.05;
-            BakeReport report;
-            return run_bake(options, report);
-        }();
-        return bake;
+        return test::sample_bake("creature", 0.05);
     }
 
     /// The two bodies' node positions: body 0 at rest, body 1 the rest shape bent (a smooth
@@ -178,6 +171,94 @@ namespace {
         world.detect(scene.states);
         EXPECT_EQ(world.last_report().primitive_pairs, 0);
         EXPECT_EQ(world.last_report().contacts, 0);
+    }
+
+    /// Whether every surface vertex of body b lies in its primitive's enlarged sphere at its
+    /// parameter (the bounds' contract), the body's solver coordinates being `surface`.
+    int vertices_outside(const CollisionWorld& world, const MatX3& surface)
+    {
+        const MedialCollisionData& collision = creature_bake().collision;
+        const MedialBounds& bounds = world.bounds(1);
+        int outside = 0;
+        for (Index v = 0; v < surface.rows(); ++v) {
+            const int p = collision.vertex_primitive(v);
+            Vec3 center = Vec3::Zero();
+            double radius = 0.0;
+            for (int i = 0; i < bounds.counts()(p); ++i) {
+                const MedialSphere sphere = bounds.sphere(p, i);
+                center += collision.vertex_parameter(v, i) * sphere.center;
+                radius += collision.vertex_parameter(v, i) * sphere.radius;
+            }
+            outside += (surface.row(v).transpose() - center).norm() > radius + 1e-12;
+        }
+        return outside;
+    }
+
+    TEST(CollisionWorld, BoundsFromThePositionsByDefaultFromQOnRequest)
+    {
+        // Body 1 deformed through the reduced coordinates (nodes = X + B q, q random), placed
+        // into body 0; body 0 at rest (q = 0).
+        const BakeData& bake = creature_bake();
+        std::mt19937 rng(11);
+        std::normal_distribution<double> normal(0.0, 0.01);
+        MatX q0 = MatX::Zero(bake.num_columns(), 3);
+        MatX q1(bake.num_columns(), 3);
+        for (Index i = 0; i < q1.rows(); ++i)
+            for (int d = 0; d < 3; ++d)
+                q1(i, d) = normal(rng);
+        MatX3 nodes0 = bake.tet_mesh.positions;
+        MatX3 nodes1 = bake.tet_mesh.positions + bake.basis * q1;
+        std::vector<CollisionBodyState> states(2);
+        states[0].nodes = &nodes0;
+        states[0].q = &q0;
+        states[1].nodes = &nodes1;
+        states[1].q = &q1;
+        const Vec3 translation(0.05, 0.45, 0.02);
+        states[1].translation = translation;
+
+        CollisionSettings settings;
+        settings.self = false;
+        CollisionWorld exact = make_world(settings);
+        settings.bounds_from_positions = false;
+        CollisionWorld from_q = make_world(settings);
+        exact.detect(states);
+        from_q.detect(states);
+
+        std::vector<SurfaceMesh> surfaces(2);
+        for (int b = 0; b < 2; ++b) {
+            surfaces[b].positions = exact.world_surface(b);
+            surfaces[b].faces = exact.faces(b);
+        }
+        GroundTruthOptions options;
+        options.self_pairs = false;
+        const std::vector<TrianglePair> truth = intersecting_triangle_pairs(surfaces, options);
+        EXPECT_GT(truth.size(), 20u);
+        EXPECT_EQ(exact.intersecting_pairs(), truth);
+        EXPECT_EQ(from_q.intersecting_pairs(), truth);
+
+        // Both enclose every vertex; the exact increments are the least that do, so no larger
+        // than the bound's, and here much smaller.
+        const MatX3 surface = exact.world_surface(1).rowwise() - translation.transpose();
+        EXPECT_EQ(vertices_outside(exact, surface), 0);
+        EXPECT_EQ(vertices_outside(from_q, surface), 0);
+        const VecX& e = exact.bounds(1).increments();
+        const VecX& b = from_q.bounds(1).increments();
+        for (Index p = 0; p < e.size(); ++p)
+            EXPECT_LE(e(p), b(p) + 1e-12) << "primitive " << p;
+        EXPECT_LT(e.sum(), 0.5 * b.sum());
+        EXPECT_GT(e.maxCoeff(), 0.0);
+        EXPECT_LT(exact.last_report().primitive_pairs, from_q.last_report().primitive_pairs);
+        // The sphere centers embedded in the tets agree with the medial basis.
+        const MatX3 centers = bake.medial.centers + bake.medial_basis * q1;
+        EXPECT_LE((exact.bounds(1).sphere_centers() - centers).cwiseAbs().maxCoeff(), 1e-9);
+
+        // Lazy from the positions: centers moved, radii unchanged.
+        settings.bounds = RadiusUpdate::lazy;
+        CollisionWorld lazy = make_world(settings);
+        states[0].q = states[1].q = nullptr;
+        lazy.detect(states);
+        EXPECT_EQ(lazy.bounds(1).increments().cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_LE((lazy.bounds(1).sphere_centers() - centers).cwiseAbs().maxCoeff(), 1e-9);
     }
 
     TEST(CollisionWorld, NoAllocationPerStepOnceWarm)

@@ -2,6 +2,7 @@
 // magnitude, huge and tiny and empty boxes, far-apart clusters), its memory bound, the self-pair
 // filter and its independence of the thread count.
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -117,6 +118,20 @@ namespace {
             EXPECT_GT(expected.size(), 100u) << "seed " << seed;
             EXPECT_LT(expected.size(), all_pairs_boxes(items).size()) << "seed " << seed;
             EXPECT_EQ(pairs, expected) << "seed " << seed;
+
+            // Items numbered body by body (as the collision world does): the scan skips the
+            // entries of the item's own body.
+            std::vector<BroadPhaseItem> body_major = items;
+            std::stable_sort(body_major.begin(), body_major.end(),
+                [](const BroadPhaseItem& a, const BroadPhaseItem& b) { return a.body < b.body; });
+            ASSERT_NE(body_major.front().body, body_major.back().body);
+            std::vector<ItemPair> expected_major;
+            for (const ItemPair& pair : all_pairs_boxes(body_major))
+                if (body_major[static_cast<std::size_t>(pair.first)].body
+                    != body_major[static_cast<std::size_t>(pair.second)].body)
+                    expected_major.push_back(pair);
+            EXPECT_EQ(expected_major.size(), expected.size()) << "seed " << seed;
+            EXPECT_EQ(hash_pairs(body_major, settings), expected_major) << "seed " << seed;
         }
     }
 

@@ -1,0 +1,299 @@
+// The narrow phase against a brute-force reference that tests every colliding primitive pair on
+// its own (the triangles and nodes of the two primitives inside the pair's region, grown by the
+// margin): on two creatures placed into each other, with object and self pairs, the narrow phase
+// finds every intersecting triangle pair the reference finds, each node's nearest triangle at
+// least as near, reports only true intersections, and gives the same result on 1, 2 and 3
+// threads.
+
+#include "runtime/collision/narrow_phase.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <string>
+
+#include <tbb/task_arena.h>
+
+#include "runtime/collision/triangle_tests.hpp"
+#include "runtime/output/surface_view.hpp"
+#include "runtime/pd/contact.hpp"
+#include "tests/support/sample_bake.hpp"
+
+namespace mat {
+namespace {
+
+    const BakeData& creature_bake()
+    {
+        return test::sample_bake("creature", 0.05);
+    }
+
+    /// One rigidly placed creature, with what NarrowPhaseBody points to.
+    struct PlacedBody {
+        MatX3 surface, nodes;
+        MatX3i faces;
+        VecXi node_indptr, node_list;
+        std::vector<Box3> primitive_boxes; ///< #P, the rest primitives placed, not enlarged
+        NarrowPhaseBody view;
+
+        PlacedBody(const Mat3& rotation, const Vec3& translation)
+        {
+            const BakeData& bake = creature_bake();
+            const auto place = [&](const MatX3& x) {
+                MatX3 out(x.rows(), 3);
+                for (Index i = 0; i < x.rows(); ++i)
+                    out.row(i) = (rotation * Vec3(x.row(i).transpose()) + translation).transpose();
+                return out;
+            };
+            nodes = place(bake.tet_mesh.positions);
+            const SurfaceView surface_view(bake);
+            surface.resize(surface_view.num_vertices(), 3);
+            surface_view.positions(nodes, surface);
+            faces = surface_view.faces();
+            const MatX3 centers = place(bake.medial.centers);
+            const MedialCollisionData& collision = bake.collision;
+            const Index num_primitives = collision.primitive_kind.size();
+            for (Index p = 0; p < num_primitives; ++p) {
+                Box3 box;
+                for (int i = 0; i < 3; ++i) {
+                    const int s = collision.primitive_spheres(p, i);
+                    if (s < 0)
+                        continue;
+                    const Vec3 c = centers.row(s).transpose();
+                    box.extend(
+                        Box3(c.array() - bake.medial.radii(s), c.array() + bake.medial.radii(s)));
+                }
+                primitive_boxes.push_back(box);
+            }
+            // Boundary nodes, each to the primitive of its nearest surface vertex (brute force).
+            const std::vector<int> boundary = boundary_nodes(bake.tet_mesh.tets, nodes.rows());
+            std::vector<int> primitive_of(boundary.size());
+            node_indptr = VecXi::Zero(num_primitives + 1);
+            for (std::size_t k = 0; k < boundary.size(); ++k) {
+                Index nearest = 0;
+                (surface.rowwise() - nodes.row(boundary[k]))
+                    .rowwise()
+                    .squaredNorm()
+                    .minCoeff(&nearest);
+                primitive_of[k] = collision.vertex_primitive(nearest);
+                ++node_indptr(primitive_of[k] + 1);
+            }
+            for (Index p = 0; p < num_primitives; ++p)
+                node_indptr(p + 1) += node_indptr(p);
+            node_list.resize(static_cast<Index>(boundary.size()));
+            VecXi fill = node_indptr.head(num_primitives);
+            for (std::size_t k = 0; k < boundary.size(); ++k)
+                node_list(fill(primitive_of[k])++) = boundary[k];
+            view.surface = &surface;
+            view.faces = &faces;
+            view.nodes = &nodes;
+            view.face_indptr = &collision.face_primitives_indptr;
+            view.face_list = &collision.face_primitives;
+            view.node_indptr = &node_indptr;
+            view.node_list = &node_list;
+        }
+    };
+
+    bool boxes_overlap(const Box3& a, const Box3& b)
+    {
+        return !a.intersection(b).isEmpty();
+    }
+
+    Box3 face_box(const PlacedBody& body, int f)
+    {
+        Box3 box;
+        for (int c = 0; c < 3; ++c)
+            box.extend(Vec3(body.surface.row(body.faces(f, c)).transpose()));
+        return box;
+    }
+
+    struct Reference {
+        std::set<FacePair> intersecting;
+        std::map<std::pair<int, int>, double> nearest; ///< (body, node) -> |signed distance|
+    };
+
+    /// Pair by pair, as the narrow phase did before it deduplicated (the definition it must
+    /// cover).
+    Reference reference(const std::vector<const PlacedBody*>& bodies,
+        const std::vector<PrimitivePairRef>& pairs, double margin)
+    {
+        Reference result;
+        for (const PrimitivePairRef& pair : pairs) {
+            const Box3 region(
+                pair.region.min().array() - margin, pair.region.max().array() + margin);
+            if (region.isEmpty())
+                continue;
+            const PlacedBody& a = *bodies[static_cast<std::size_t>(pair.body_a)];
+            const PlacedBody& b = *bodies[static_cast<std::size_t>(pair.body_b)];
+            const auto faces_in = [&](const PlacedBody& body, int p) {
+                std::vector<int> out;
+                const MedialCollisionData& collision = creature_bake().collision;
+                for (int j = collision.face_primitives_indptr(p);
+                     j < collision.face_primitives_indptr(p + 1); ++j)
+                    if (boxes_overlap(face_box(body, collision.face_primitives(j)), region))
+                        out.push_back(collision.face_primitives(j));
+                return out;
+            };
+            const std::vector<int> faces_a = faces_in(a, pair.primitive_a);
+            const std::vector<int> faces_b = faces_in(b, pair.primitive_b);
+            const auto corner = [](const PlacedBody& body, int f, int c) {
+                return Vec3(body.surface.row(body.faces(f, c)).transpose());
+            };
+            for (const int fa : faces_a)
+                for (const int fb : faces_b) {
+                    if (pair.body_a == pair.body_b) {
+                        bool shared = false;
+                        for (int u = 0; u < 3; ++u)
+                            for (int v = 0; v < 3; ++v)
+                                shared |= a.faces(fa, u) == b.faces(fb, v);
+                        if (shared)
+                            continue;
+                    }
+                    if (!boxes_overlap(face_box(a, fa), face_box(b, fb)))
+                        continue;
+                    if (triangles_intersect(corner(a, fa, 0), corner(a, fa, 1), corner(a, fa, 2),
+                            corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2))) {
+                        FacePair key { pair.body_a, fa, pair.body_b, fb };
+                        if (std::make_pair(pair.body_b, fb) < std::make_pair(pair.body_a, fa))
+                            key = { pair.body_b, fb, pair.body_a, fa };
+                        result.intersecting.insert(key);
+                    }
+                }
+            const auto nodes_against = [&](const PlacedBody& x, int body_x, int prim_x,
+                                           const PlacedBody& y, const std::vector<int>& faces_y) {
+                for (int k = x.node_indptr(prim_x); k < x.node_indptr(prim_x + 1); ++k) {
+                    const int node = x.node_list(k);
+                    const Vec3 p = x.nodes.row(node).transpose();
+                    if (!region.contains(p))
+                        continue;
+                    for (const int f : faces_y) {
+                        const Box3 box = face_box(y, f);
+                        if (!Box3(box.min().array() - margin, box.max().array() + margin)
+                                 .contains(p))
+                            continue;
+                        const PointTriangleClosest closest = point_triangle_closest(
+                            p, corner(y, f, 0), corner(y, f, 1), corner(y, f, 2));
+                        const Vec3 n = (corner(y, f, 1) - corner(y, f, 0))
+                                           .cross(corner(y, f, 2) - corner(y, f, 0));
+                        const double d = std::sqrt(closest.squared_distance);
+                        const double signed_d = n.dot(p - closest.point) < 0.0 ? -d : d;
+                        if (signed_d >= margin)
+                            continue;
+                        auto [it, inserted] = result.nearest.emplace(
+                            std::make_pair(body_x, node), std::abs(signed_d));
+                        if (!inserted)
+                            it->second = std::min(it->second, std::abs(signed_d));
+                    }
+                }
+            };
+            nodes_against(a, pair.body_a, pair.primitive_a, b, faces_b);
+            nodes_against(b, pair.body_b, pair.primitive_b, a, faces_a);
+        }
+        return result;
+    }
+
+    TEST(NarrowPhase, CoversThePairByPairReferenceAndIndependentOfThreads)
+    {
+        const PlacedBody body0(Mat3::Identity(), Vec3::Zero());
+        const PlacedBody body1(
+            Eigen::AngleAxisd(0.5, Vec3::UnitY()).toRotationMatrix(), Vec3(0.05, 0.4, 0.02));
+        const std::vector<const PlacedBody*> placed { &body0, &body1 };
+        const std::vector<NarrowPhaseBody> views { body0.view, body1.view };
+        const double margin = 0.013;
+        // Pairs: every pair of primitives with overlapping boxes, between the bodies and (one
+        // body's own, sharing no sphere) within body 0.
+        const MedialCollisionData& collision = creature_bake().collision;
+        const auto share_sphere = [&](int p, int q) {
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    if (collision.primitive_spheres(p, i) >= 0
+                        && collision.primitive_spheres(p, i) == collision.primitive_spheres(q, j))
+                        return true;
+            return false;
+        };
+        std::vector<PrimitivePairRef> pairs;
+        const int num_primitives = static_cast<int>(body0.primitive_boxes.size());
+        for (int p = 0; p < num_primitives; ++p)
+            for (int q = 0; q < num_primitives; ++q) {
+                const Box3 cross = body0.primitive_boxes[static_cast<std::size_t>(p)].intersection(
+                    body1.primitive_boxes[static_cast<std::size_t>(q)]);
+                if (!cross.isEmpty())
+                    pairs.push_back({ 0, p, 1, q, cross });
+                const Box3 self = body0.primitive_boxes[static_cast<std::size_t>(p)].intersection(
+                    body0.primitive_boxes[static_cast<std::size_t>(q)]);
+                if (p < q && !self.isEmpty() && !share_sphere(p, q))
+                    pairs.push_back({ 0, p, 0, q, self });
+            }
+        const Reference expected = reference(placed, pairs, margin);
+        ASSERT_GT(expected.intersecting.size(), 20u);
+        ASSERT_GT(expected.nearest.size(), 20u);
+
+        NarrowPhase narrow;
+        std::vector<FacePair> first_pairs;
+        std::vector<NodeCandidate> first_candidates;
+        for (const int threads : { 1, 2, 3 }) {
+            tbb::task_arena arena(threads);
+            arena.execute([&] { narrow.run(views, pairs, margin); });
+            const std::string what = "threads " + std::to_string(threads);
+            const std::vector<FacePair>& found = narrow.intersecting();
+            ASSERT_TRUE(std::is_sorted(found.begin(), found.end())) << what;
+            ASSERT_TRUE(std::adjacent_find(found.begin(), found.end()) == found.end()) << what;
+            for (const FacePair& pair : expected.intersecting)
+                EXPECT_TRUE(std::binary_search(found.begin(), found.end(), pair))
+                    << what << ": missed " << pair[0] << " " << pair[1] << " " << pair[2] << " "
+                    << pair[3];
+            for (const FacePair& pair : found) {
+                const PlacedBody& a = *placed[static_cast<std::size_t>(pair[0])];
+                const PlacedBody& b = *placed[static_cast<std::size_t>(pair[2])];
+                const auto corner = [](const PlacedBody& body, int f, int c) {
+                    return Vec3(body.surface.row(body.faces(f, c)).transpose());
+                };
+                EXPECT_TRUE(triangles_intersect(corner(a, pair[1], 0), corner(a, pair[1], 1),
+                    corner(a, pair[1], 2), corner(b, pair[3], 0), corner(b, pair[3], 1),
+                    corner(b, pair[3], 2)))
+                    << what;
+            }
+            EXPECT_GE(narrow.triangle_tests(), static_cast<long>(found.size())) << what;
+
+            const std::vector<NodeCandidate>& candidates = narrow.candidates();
+            std::map<std::pair<int, int>, const NodeCandidate*> by_node;
+            for (const NodeCandidate& c : candidates) {
+                EXPECT_TRUE(by_node.emplace(std::make_pair(c.body, c.node), &c).second)
+                    << what << ": node " << c.node << " twice";
+                EXPECT_LT(c.distance, margin) << what;
+                // The candidate's distance is that of its closest point.
+                const Vec3 x
+                    = placed[static_cast<std::size_t>(c.body)]->nodes.row(c.node).transpose();
+                EXPECT_NEAR((x - c.closest).norm(), std::abs(c.distance), 1e-12) << what;
+            }
+            for (const auto& [node, distance] : expected.nearest) {
+                const auto it = by_node.find(node);
+                ASSERT_TRUE(it != by_node.end())
+                    << what << ": no candidate for node " << node.second;
+                EXPECT_LE(std::abs(it->second->distance), distance + 1e-15) << what;
+            }
+            if (threads == 1) {
+                first_pairs = found;
+                first_candidates = candidates;
+                continue;
+            }
+            EXPECT_EQ(found, first_pairs) << what;
+            ASSERT_EQ(candidates.size(), first_candidates.size()) << what;
+            for (std::size_t k = 0; k < candidates.size(); ++k) {
+                EXPECT_EQ(candidates[k].node, first_candidates[k].node) << what;
+                EXPECT_EQ(candidates[k].face, first_candidates[k].face) << what;
+                EXPECT_EQ(candidates[k].distance, first_candidates[k].distance) << what;
+            }
+        }
+        // No pairs: nothing.
+        narrow.run(views, {}, margin);
+        EXPECT_TRUE(narrow.intersecting().empty());
+        EXPECT_TRUE(narrow.candidates().empty());
+        EXPECT_EQ(narrow.triangle_tests(), 0);
+    }
+
+} // namespace
+} // namespace mat
