@@ -88,6 +88,30 @@ namespace {
         double u[3][3][W]; ///< U
     };
 
+    /// Applies the rotation (c, s) in the plane (p, q) to lane l: A <- G^T A G, and the columns
+    /// p, q of V and B.
+    template <int p, int q, int k>
+    inline void rotate_lane(DoubleStage& d, int l, double c, double s)
+    {
+        const double cc = c * c, ss = s * s, cs = c * s;
+        const double app = d.a[p][p][l], aqq = d.a[q][q][l], apq = d.MAT_SYM(a, p, q)[l];
+        const double apk = d.MAT_SYM(a, p, k)[l], aqk = d.MAT_SYM(a, q, k)[l];
+        d.a[p][p][l] = cc * app + 2.0 * cs * apq + ss * aqq;
+        d.a[q][q][l] = ss * app - 2.0 * cs * apq + cc * aqq;
+        d.MAT_SYM(a, p, q)[l] = (cc - ss) * apq + cs * (aqq - app);
+        d.MAT_SYM(a, p, k)[l] = c * apk + s * aqk;
+        d.MAT_SYM(a, q, k)[l] = c * aqk - s * apk;
+#pragma GCC unroll 3
+        for (int r = 0; r < 3; ++r) {
+            const double vp = d.v[r][p][l], vq = d.v[r][q][l];
+            d.v[r][p][l] = c * vp + s * vq;
+            d.v[r][q][l] = c * vq - s * vp;
+            const double bp = d.b[r][p][l], bq = d.b[r][q][l];
+            d.b[r][p][l] = c * bp + s * bq;
+            d.b[r][q][l] = c * bq - s * bp;
+        }
+    }
+
     /// The same rotation angle as jacobi_rotation, in double, applied to A and to the columns
     /// p, q of V and B.
     template <int p, int q, int k> inline void polish_rotation(DoubleStage& d)
@@ -102,23 +126,7 @@ namespace {
             sh = use ? sh * inv : 0.3826834323650898;
             const double c = ch * ch - sh * sh;
             const double s = 2.0 * ch * sh;
-            const double cc = c * c, ss = s * s, cs = c * s;
-            const double app = d.a[p][p][l], aqq = d.a[q][q][l], apq = d.MAT_SYM(a, p, q)[l];
-            const double apk = d.MAT_SYM(a, p, k)[l], aqk = d.MAT_SYM(a, q, k)[l];
-            d.a[p][p][l] = cc * app + 2.0 * cs * apq + ss * aqq;
-            d.a[q][q][l] = ss * app - 2.0 * cs * apq + cc * aqq;
-            d.MAT_SYM(a, p, q)[l] = (cc - ss) * apq + cs * (aqq - app);
-            d.MAT_SYM(a, p, k)[l] = c * apk + s * aqk;
-            d.MAT_SYM(a, q, k)[l] = c * aqk - s * apk;
-#pragma GCC unroll 3
-            for (int r = 0; r < 3; ++r) {
-                const double vp = d.v[r][p][l], vq = d.v[r][q][l];
-                d.v[r][p][l] = c * vp + s * vq;
-                d.v[r][q][l] = c * vq - s * vp;
-                const double bp = d.b[r][p][l], bq = d.b[r][q][l];
-                d.b[r][p][l] = c * bp + s * bq;
-                d.b[r][q][l] = c * bq - s * bp;
-            }
+            rotate_lane<p, q, k>(d, l, c, s);
         }
     }
 
@@ -212,26 +220,9 @@ namespace {
     template <int p, int q, int k> inline void small_rotation(DoubleStage& d)
     {
         for (int l = 0; l < W; ++l) {
-            const double app = d.a[p][p][l], aqq = d.a[q][q][l], apq = d.MAT_SYM(a, p, q)[l];
-            const double gap = app - aqq;
-            const double s = gap != 0.0 ? apq / gap : 0.0;
-            const double c = 1.0 - 0.5 * s * s;
-            const double cc = c * c, ss = s * s, cs = c * s;
-            const double apk = d.MAT_SYM(a, p, k)[l], aqk = d.MAT_SYM(a, q, k)[l];
-            d.a[p][p][l] = cc * app + 2.0 * cs * apq + ss * aqq;
-            d.a[q][q][l] = ss * app - 2.0 * cs * apq + cc * aqq;
-            d.MAT_SYM(a, p, q)[l] = (cc - ss) * apq + cs * (aqq - app);
-            d.MAT_SYM(a, p, k)[l] = c * apk + s * aqk;
-            d.MAT_SYM(a, q, k)[l] = c * aqk - s * apk;
-#pragma GCC unroll 3
-            for (int r = 0; r < 3; ++r) {
-                const double vp = d.v[r][p][l], vq = d.v[r][q][l];
-                d.v[r][p][l] = c * vp + s * vq;
-                d.v[r][q][l] = c * vq - s * vp;
-                const double bp = d.b[r][p][l], bq = d.b[r][q][l];
-                d.b[r][p][l] = c * bp + s * bq;
-                d.b[r][q][l] = c * bq - s * bp;
-            }
+            const double gap = d.a[p][p][l] - d.a[q][q][l];
+            const double s = gap != 0.0 ? d.MAT_SYM(a, p, q)[l] / gap : 0.0;
+            rotate_lane<p, q, k>(d, l, 1.0 - 0.5 * s * s, s);
         }
     }
 
