@@ -155,6 +155,7 @@ Model::Model(const BakeData& bake, const Material& material, const ModelOptions&
     m_handle_centers = bake.handle_centers;
     m_handle_scales = bake.handle_scales;
     m_handle_column_offsets = bake.handle_column_offsets;
+    m_reduced_laplacian = bake.reduced_laplacian;
     MatX reduced = stiffness * bake.reduced_laplacian + (material.density / h2) * bake.reduced_mass;
     for (const int i : m_pinned_nodes) {
         const Eigen::SparseVector<double> row = m_basis.row(i);

@@ -94,6 +94,8 @@ public:
     const MatX3& handle_centers() const { return m_handle_centers; }
     const VecX& handle_scales() const { return m_handle_scales; }
     const VecXi& handle_column_offsets() const { return m_handle_column_offsets; }
+    /// B^T L B  k x k: the reduced per-unit Laplacian (L = sum_e vol_e G_e^T G_e).
+    const MatX& reduced_laplacian() const { return m_reduced_laplacian; }
     /// S = B^T (L_w + M/h^2 + P) B  k x k, factored (dense LLT).
     const Eigen::LLT<MatX>& reduced_system() const { return m_reduced_system; }
     /// A = L_w + M/h^2 + P  n x n, symmetric, stored full (the full solver factors it).
@@ -122,6 +124,7 @@ private:
     MatX3 m_handle_centers;
     VecX m_handle_scales;
     VecXi m_handle_column_offsets;
+    MatX m_reduced_laplacian;
     Eigen::LLT<MatX> m_reduced_system;
     Eigen::SparseMatrix<double> m_full_system;
 };

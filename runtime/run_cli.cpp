@@ -42,8 +42,9 @@ int run_main(int argc, char** argv)
     app.add_option("--frames", options.frames, "Output frames to run (overrides the scene)")
         ->check(CLI::PositiveNumber);
     app.add_option("--solver", options.solver,
-           "semi: semi-reduced PD (reduced global step); full: full-space PD (reference)")
-        ->check(CLI::IsMember({ "semi", "full" }))
+           "semi: semi-reduced PD (reduced global step); full: full-space PD (reference); hyper: "
+           "hyper-reduced PD (local step on sampled tets, solver.hyper_samples)")
+        ->check(CLI::IsMember({ "semi", "full", "hyper" }))
         ->capture_default_str();
     app.add_option("--stats", options.stats,
         "Write per-frame timings, iterations, energies, strain and contacts as JSON");

@@ -228,7 +228,10 @@ void run_simulation(const RunOptions& options)
     logger().info("{}: {} bodies, dt {} s, {} steps per frame, {} frames, {} iterations, {} "
                   "solver",
         scene.file, simulation.bodies().size(), scene.time.dt, scene.steps_per_frame, frames,
-        scene.time.iterations, solver_kind == SolverKind::full ? "full-space" : "semi-reduced");
+        scene.time.iterations,
+        solver_kind == SolverKind::full
+            ? "full-space"
+            : (solver_kind == SolverKind::hyper_reduced ? "hyper-reduced" : "semi-reduced"));
     const double setup_seconds = total.seconds();
 
     std::vector<VecX> tet_strain(simulation.bodies().size());

@@ -5,6 +5,7 @@
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "formats/bake_io.hpp"
+#include "runtime/pd/hyper_reduced.hpp"
 #include "runtime/scene/pin_motion.hpp"
 
 namespace mat {
@@ -68,7 +69,9 @@ SolverKind parse_solver_kind(const std::string& name)
         return SolverKind::semi_reduced;
     if (name == "full")
         return SolverKind::full;
-    throw_error("--solver: '{}' is not a solver (expected semi or full)", name);
+    if (name == "hyper")
+        return SolverKind::hyper_reduced;
+    throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
 }
 
 Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
@@ -148,6 +151,9 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
                 PlaneCollider { collider.point, collider.normal, collider.friction });
         if (solver_kind == SolverKind::full)
             body.solver = std::make_unique<FullSolver>(*body.model, solver_options);
+        else if (solver_kind == SolverKind::hyper_reduced)
+            body.solver = std::make_unique<HyperReducedSolver>(
+                *body.model, solver_options, scene.solver.hyper_samples);
         else
             body.solver = std::make_unique<SemiReducedSolver>(*body.model, solver_options);
 

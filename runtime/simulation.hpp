@@ -28,9 +28,9 @@
 
 namespace mat {
 
-enum class SolverKind { semi_reduced, full };
+enum class SolverKind { semi_reduced, full, hyper_reduced };
 
-/// "semi" or "full" -> SolverKind; throws mat::Error otherwise.
+/// "semi", "full" or "hyper" -> SolverKind; throws mat::Error otherwise.
 SolverKind parse_solver_kind(const std::string& name);
 
 /// One pinned region of a body: its nodes (indices into the model's pinned list and the mesh).

@@ -105,6 +105,27 @@ void ReducedGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
     timings.solve += timer.seconds();
 }
 
+void ReducedGlobalStep::solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings)
+{
+    Timer timer;
+    MAT_CHECK(rhs.rows() == m_q.rows() && rhs.cols() == 3,
+        "reduced global step: the reduced right-hand side is {} x {}, expected {} x 3", rhs.rows(),
+        rhs.cols(), m_q.rows());
+    m_q = rhs;
+    tbb::parallel_for(0, 3, [&](int c) {
+        auto column = m_q.col(c);
+        m_model.reduced_system().solveInPlace(column);
+    });
+    timings.solve += timer.seconds();
+}
+
+void ReducedGlobalStep::set_reduced_coordinates(const Eigen::Ref<const MatX>& q)
+{
+    MAT_CHECK(q.rows() == m_q.rows() && q.cols() == 3,
+        "reduced global step: q is {} x {}, expected {} x 3", q.rows(), q.cols(), m_q.rows());
+    m_q = q;
+}
+
 Vec3 ReducedGlobalStep::node_position(int node) const
 {
     Eigen::RowVector3d x = m_model.rest_positions().row(node);

@@ -84,6 +84,12 @@ public:
     double coupling(int node_i, int node_j) const override;
     void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces) override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
+    /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
+    void solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings);
+    /// Replaces the kept solution by `q`  k x 3.
+    void set_reduced_coordinates(const Eigen::Ref<const MatX>& q);
+    /// The basis products the step uses (B^T y, X + B q).
+    const BasisProducts& products() const { return m_products; }
     /// q  k x 3 of the kept solution.
     const MatX& reduced_coordinates() const { return m_q; }
 

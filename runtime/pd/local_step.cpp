@@ -106,12 +106,29 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     return result;
 }
 
+namespace {
+    std::vector<int> all_tets(Index count)
+    {
+        std::vector<int> ids(count);
+        for (Index e = 0; e < count; ++e)
+            ids[e] = static_cast<int>(e);
+        return ids;
+    }
+} // namespace
+
 LocalStep::LocalStep(const Model& model, bool exact)
+    : LocalStep(model, exact, all_tets(model.num_tets()))
+{
+}
+
+LocalStep::LocalStep(const Model& model, bool exact, const std::vector<int>& ids)
     : m_num_tets(model.num_tets())
     , m_exact(exact)
 {
     constexpr int lanes = projection_lanes;
-    const Index t = model.num_tets();
+    const Index t = static_cast<Index>(ids.size());
+    for (const int e : ids)
+        MAT_CHECK(e >= 0 && e < model.num_tets(), "local step: tet {} out of range", e);
     const Index n = model.num_nodes();
     const Index num_blocks = (t + lanes - 1) / lanes;
     const MatX4i& tets = model.tets();
@@ -124,7 +141,7 @@ LocalStep::LocalStep(const Model& model, bool exact)
         const Index first = b * lanes;
         block.count = static_cast<int>(std::min<Index>(lanes, t - first));
         for (int l = 0; l < lanes; ++l) {
-            const Index e = first + (l < block.count ? l : 0);
+            const Index e = ids[first + (l < block.count ? l : 0)];
             for (int c = 0; c < 4; ++c)
                 block.nodes[c][l] = tets(e, c);
             for (int i = 0; i < 9; ++i)

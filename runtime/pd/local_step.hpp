@@ -47,6 +47,9 @@ class LocalStep {
 public:
     /// `exact`: the projections' decomposition (ProjectionParams::exact).
     explicit LocalStep(const Model& model, bool exact = true);
+    /// The local step over the tets `tets` only (distinct indices, ascending for locality; the
+    /// hyper-reduced solver's samples): the sums then run over them.
+    LocalStep(const Model& model, bool exact, const std::vector<int>& tets);
 
     /// rhs = sum_e vol_e G_e^T (2 mu R_e + lambda V_e + w_limit L_e)^T  n x 3 at
     /// `positions`  n x 3 (the weighted constraint projections, Bouaziz et al. 2014 eq. 13

@@ -35,12 +35,13 @@ namespace {
 
 } // namespace
 
-PdSolver::PdSolver(
-    const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global)
+PdSolver::PdSolver(const Model& model, const SolverOptions& options,
+    std::unique_ptr<GlobalStep> global, bool full_local_step)
     : m_model(&model)
     , m_options(options)
     , m_global(std::move(global))
-    , m_local(model, options.exact_projections)
+    , m_local(
+          full_local_step ? std::make_unique<LocalStep>(model, options.exact_projections) : nullptr)
     , m_pin_targets(model.pin_targets())
     , m_inertia(model.num_nodes(), 3)
     , m_rhs(model.num_nodes(), 3)
@@ -83,6 +84,16 @@ void PdSolver::set_node_contacts(std::vector<NodeContact> contacts)
             throw_error("solver: contact at node {} has a bad plane", c.node);
     }
     m_node_contacts = std::move(contacts);
+}
+
+void PdSolver::local_global(const Model& model, int /*iteration*/,
+    const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base)
+{
+    MAT_CHECK(m_local != nullptr, "solver: made without the full local step");
+    Timer timer;
+    m_local->assemble(model, positions, base, m_rhs);
+    m_timings.local += timer.seconds();
+    m_global->solve(m_rhs, m_timings);
 }
 
 // Candidates: boundary nodes within the margin of a plane at the start of the step or at the
@@ -199,11 +210,7 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
     const Index m = static_cast<Index>(m_pairs.size());
 
     for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
-        timer.restart();
-        m_local.assemble(model, out.positions, m_rhs_base, m_rhs);
-        m_timings.local += timer.seconds();
-
-        m_global->solve(m_rhs, m_timings);
+        local_global(model, iteration, out.positions, m_rhs_base);
 
         if (m > 0) {
             timer.restart();
@@ -216,7 +223,8 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
             m_global->add_forces(m_pair_nodes, m_contact_forces);
             m_timings.contact += timer.seconds();
         }
-        m_global->positions(out.positions, m_timings);
+        if (reads_iterate() || iteration + 1 == m_options.iterations)
+            m_global->positions(out.positions, m_timings);
         ++m_timings.iterations;
     }
 

@@ -82,8 +82,21 @@ public:
     const StepReport& last_report() const { return m_report; }
 
 protected:
-    PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global);
+    /// `full_local_step`: make the local step over every tet that the default local_global uses.
+    PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global,
+        bool full_local_step = true);
     GlobalStep& global_step() { return *m_global; }
+    SolverTimings& mutable_timings() { return m_timings; }
+
+    /// One iteration's local step and global solve (the solution stays in the global step): at the
+    /// iterate `positions`  n x 3 with the step's constant right-hand side `base`  n x 3 (inertia,
+    /// pins, the global step's constant terms). By default the local step over every tet, then
+    /// the global step's solve.
+    virtual void local_global(const Model& model, int iteration,
+        const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base);
+    /// False if local_global reads `positions` only at iteration 0 (the inertia target): the
+    /// full iterate is then reconstructed after the last iteration only.
+    virtual bool reads_iterate() const { return true; }
 
 private:
     void find_contacts(const State& in);
@@ -91,7 +104,7 @@ private:
     const Model* m_model;
     SolverOptions m_options;
     std::unique_ptr<GlobalStep> m_global;
-    LocalStep m_local;
+    std::unique_ptr<LocalStep> m_local; ///< null unless full_local_step
     MatX3 m_pin_targets; ///< #pinned x 3
     MatX3 m_inertia; ///< s  n x 3
     MatX3 m_rhs; ///< n x 3

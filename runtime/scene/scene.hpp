@@ -37,6 +37,7 @@ struct SolverSettings {
     std::string self_collision; ///< "on" or "off"
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
+    int hyper_samples = 0; ///< tets in the hyper-reduced local step (0: automatic)
 };
 
 struct MaterialSettings {

@@ -172,6 +172,12 @@ namespace {
                 .set_default(0.3)
                 .at_least(0)
                 .set_doc("Coulomb friction coefficient between objects"),
+            value_key(S::solver, "hyper_samples", T::integer, &SolverSettings::hyper_samples)
+                .set_default(0)
+                .at_least(0)
+                .set_doc("tets sampled by the hyper-reduced solver (--solver hyper), 0 for twice "
+                         "as many as the model has reduced coordinates per axis; more is slower "
+                         "and closer to semi-reduced (equal with every tet)"),
 
             // objects[]
             value_key(S::object, "name", T::string, &ObjectSettings::name)

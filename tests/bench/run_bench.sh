@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The run benchmark (issue 4; not a test): ms per step of semi-reduced against full-space
-# projective dynamics at 10 iterations, on the sample creature at about 50k tets with about 150
-# handles, on the threads given (default 2), with the time per phase and the peak RSS of each.
+# The run benchmark (issue 4; not a test): ms per step of semi-reduced against full-space (and
+# hyper-reduced: the local step on sampled tets) projective dynamics at 10 iterations, on the
+# sample creature at about 50k tets with about 150 handles, on the threads given (default 2),
+# with the time per phase and the peak RSS of each.
 # The creature falls freely (no ground: this measures the solver; contact is issue 5's bench).
 # Usage: tests/bench/run_bench.sh [BUILD_DIR] [THREADS] [STEPS]
 set -euo pipefail
@@ -29,7 +30,7 @@ cat > "$work/scene.json" <<SCENE
   "output": { "format": "obj", "every": $steps }
 }
 SCENE
-for solver in semi full; do
+for solver in semi full hyper; do
     echo "== $solver, $threads threads, $steps steps"
     "$run" --log-level info --threads "$threads" "$work/scene.json" -o "$work/out-$solver" \
         --solver "$solver" 2>&1 | grep -v "^\[info\] .*scene.json"

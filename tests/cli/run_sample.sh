@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# run_sample.sh MAT_RUN SAMPLE_DIR BAKE WORK_DIR FRAMES
+# run_sample.sh MAT_RUN SAMPLE_DIR BAKE WORK_DIR FRAMES [MAT_RUN_OPTIONS...]
 # Runs a sample scene for a few frames on a given (coarse) bake: copies the scene next to the
 # bake under the name the scene expects, runs mat-run with every output format and --stats, and
 # checks that every frame file, the collection, the trajectory cache and the stats are there.
 set -euo pipefail
 run="$1"; sample_dir="$2"; bake="$3"; work="$4"; frames="$5"
+shift 5 # the rest: more mat-run options (e.g. --solver hyper)
 name="$(basename "$sample_dir")"
 rm -rf "$work"; mkdir -p "$work"
 # The scene with every output format and field switched on (its other keys as shipped).
@@ -15,7 +16,7 @@ grep -q '"vtu"' "$work/scene.json" || { echo "FAIL: could not set the output for
 for b in $(grep -o '"bake": *"[^"]*"' "$work/scene.json" | sed 's/.*"\([^"]*\)"$/\1/' | sort -u); do
     cp "$bake" "$work/$b"
 done
-"$run" "$work/scene.json" -o "$work/out" --frames "$frames" --stats "$work/stats.json" --threads 2
+"$run" "$work/scene.json" -o "$work/out" --frames "$frames" --stats "$work/stats.json" --threads 2 "$@"
 status=0
 objects=$(grep -o '"name": *"[^"]*"' "$work/scene.json" | sed 's/.*"\([^"]*\)"$/\1/')
 for object in $objects; do

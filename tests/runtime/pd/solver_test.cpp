@@ -15,42 +15,19 @@
 #include "runtime/model.hpp"
 #include "runtime/pd/solver.hpp"
 #include "runtime/state.hpp"
+#include "tests/runtime/pd/pd_test_support.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
 #include "tests/support/temp_files.hpp"
 
 namespace mat {
 namespace {
 
-    constexpr double dt = 1.0 / 60.0;
-
+    constexpr double dt = test::pd_dt;
+    using test::run_steps;
+    using test::twist_velocities;
     ModelOptions model_options()
     {
-        ModelOptions options;
-        options.time_step = dt;
-        return options;
-    }
-
-    /// A twisting and stretching initial velocity field around the x axis through the center
-    /// of the unit cube: it excites rotation, shear and volume change.
-    MatX3 twist_velocities(const MatX3& positions)
-    {
-        MatX3 v(positions.rows(), 3);
-        for (Index i = 0; i < positions.rows(); ++i) {
-            const Vec3 p = positions.row(i).transpose() - Vec3(0.5, 0.5, 0.5);
-            const Vec3 w = Vec3(6.0 * p.x(), 0.0, 0.0);
-            v.row(i) = (w.cross(p) + Vec3(0.0, 0.8 * p.x() * p.x(), 0.5 * p.y())).transpose();
-        }
-        return v;
-    }
-
-    template <typename Solver> State run(Solver& solver, const Model& model, State state, int steps)
-    {
-        State next;
-        for (int s = 0; s < steps; ++s) {
-            solver.step(model, state, next, dt);
-            std::swap(state, next);
-        }
-        return state;
+        return test::pd_model_options();
     }
 
     std::vector<int> nodes_with_x_below(const MatX3& positions, double x)
@@ -71,7 +48,8 @@ namespace {
         SemiReducedSolver reduced(model, options);
         FullSolver full(model, options);
         const State rest = State::at_rest(model);
-        for (const State& end : { run(reduced, model, rest, 5), run(full, model, rest, 5) }) {
+        for (const State& end :
+            { run_steps(reduced, model, rest, 5), run_steps(full, model, rest, 5) }) {
             EXPECT_LT((end.positions - rest.positions).cwiseAbs().maxCoeff(), 1e-10);
             EXPECT_LT(end.velocities.cwiseAbs().maxCoeff(), 1e-10);
         }
@@ -131,7 +109,8 @@ namespace {
         SemiReducedSolver reduced(model);
         FullSolver full(model);
         const State rest = State::at_rest(model);
-        for (const State& end : { run(reduced, model, rest, 20), run(full, model, rest, 20) }) {
+        for (const State& end :
+            { run_steps(reduced, model, rest, 20), run_steps(full, model, rest, 20) }) {
             const double sag = (end.positions - rest.positions).rowwise().norm().maxCoeff();
             EXPECT_GT(sag, 1e-3); // the free end moved
             for (const int i : options.pinned_nodes)
@@ -199,8 +178,8 @@ namespace {
             FullSolver full(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
-            const State a = run(reduced, model, start, 10);
-            const State b = run(full, model, start, 10);
+            const State a = run_steps(reduced, model, start, 10);
+            const State b = run_steps(full, model, start, 10);
             EXPECT_LT(relative_difference(a.positions, b.positions, start.positions), 1e-8)
                 << "pinned " << pinned;
         }
@@ -231,8 +210,8 @@ namespace {
             FullSolver full(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
-            const State a = run(reduced, model, start, 10);
-            const State b = run(full, model, start, 10);
+            const State a = run_steps(reduced, model, start, 10);
+            const State b = run_steps(full, model, start, 10);
             errors.push_back(relative_difference(a.positions, b.positions, start.positions));
         }
         const std::string trace = fmt::format(
@@ -256,9 +235,9 @@ namespace {
         fast.exact_projections = false;
         SemiReducedSolver a(model, exact), b(model, fast);
         FullSolver reference(model, exact);
-        const State end_exact = run(a, model, start, 10);
-        const State end_fast = run(b, model, start, 10);
-        const State end_full = run(reference, model, start, 10);
+        const State end_exact = run_steps(a, model, start, 10);
+        const State end_fast = run_steps(b, model, start, 10);
+        const State end_full = run_steps(reference, model, start, 10);
         const double difference
             = relative_difference(end_fast.positions, end_exact.positions, start.positions);
         const double reduction
@@ -281,8 +260,8 @@ namespace {
             set_threads(threads);
             SemiReducedSolver reduced(model);
             FullSolver full(model);
-            reduced_ends.push_back(run(reduced, model, start, 5));
-            full_ends.push_back(run(full, model, start, 5));
+            reduced_ends.push_back(run_steps(reduced, model, start, 5));
+            full_ends.push_back(run_steps(full, model, start, 5));
         }
         set_threads(0);
         EXPECT_EQ(reduced_ends[0].positions, reduced_ends[1].positions);
