@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "common/error.hpp"
+#include "formats/atomic_file.hpp"
 
 namespace mat::text_io {
 
@@ -153,6 +154,13 @@ void write_file(const std::string& path, std::string_view text, const std::strin
     }
     if (std::fclose(file) != 0)
         throw_error("{}: cannot write: {}", target, std::strerror(errno));
+}
+
+void write_file_atomically(const std::string& path, std::string_view text)
+{
+    AtomicFile file(path);
+    write_file(file.temp_path(), text, path);
+    file.commit();
 }
 
 } // namespace mat::text_io

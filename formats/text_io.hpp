@@ -86,4 +86,8 @@ std::string read_file(const std::string& path);
 /// `target` on any I/O failure.
 void write_file(const std::string& path, std::string_view text, const std::string& target);
 
+/// Writes `text` to `path` atomically (an AtomicFile: a temporary beside it, renamed at the end;
+/// nothing is left at `path` on failure). Throws mat::Error naming `path` on any I/O failure.
+void write_file_atomically(const std::string& path, std::string_view text);
+
 } // namespace mat::text_io

@@ -56,6 +56,11 @@ int run_main(int argc, char** argv)
         "a color per object) and, where ffmpeg is on PATH, assemble OUTDIR/preview.mp4");
     app.add_option("--preview-size", preview_size, "Preview image size WIDTHxHEIGHT in pixels")
         ->capture_default_str();
+    app.add_option("--reference", options.reference,
+           "Trajectory cache (trajectory.h5 of an earlier run of this scene, e.g. full-space PD at "
+           "many iterations): write this run's trajectory.h5 too and report the RMS and max "
+           "surface distance to it (% of its bounding-box diagonal, max over frames)")
+        ->check(CLI::ExistingFile);
     app.add_flag("--scene-reference", reference,
         "Print every scene key with its type, default and doc (Markdown), then exit");
     return run_cli(app, argc, argv, [&] {

@@ -14,11 +14,13 @@
 #include "common/parallel.hpp"
 #include "common/progress.hpp"
 #include "common/timer.hpp"
-#include "formats/atomic_file.hpp"
+#include "formats/text_io.hpp"
+#include "formats/trajectory_io.hpp"
 #include "runtime/output/collision_check.hpp"
 #include "runtime/output/exporter.hpp"
 #include "runtime/output/measures.hpp"
 #include "runtime/output/preview.hpp"
+#include "runtime/output/trajectory_error.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/simulation.hpp"
 
@@ -59,6 +61,9 @@ namespace {
     /// the steps, seconds are sums.
     void accumulate(CollisionReport& into, const CollisionReport& step)
     {
+        into.updated_bodies = std::max(into.updated_bodies, step.updated_bodies);
+        into.object_pairs = std::max(into.object_pairs, step.object_pairs);
+        into.hashed_bodies = std::max(into.hashed_bodies, step.hashed_bodies);
         into.primitive_candidates = std::max(into.primitive_candidates, step.primitive_candidates);
         into.primitive_pairs = std::max(into.primitive_pairs, step.primitive_pairs);
         into.triangle_tests = std::max(into.triangle_tests, step.triangle_tests);
@@ -89,8 +94,10 @@ namespace {
 
     nlohmann::json collision_json(const CollisionReport& r)
     {
-        return nlohmann::json { { "candidates", r.primitive_candidates },
-            { "primitive_pairs", r.primitive_pairs }, { "triangle_tests", r.triangle_tests },
+        return nlohmann::json { { "updated_bodies", r.updated_bodies },
+            { "object_pairs", r.object_pairs }, { "hashed_bodies", r.hashed_bodies },
+            { "candidates", r.primitive_candidates }, { "primitive_pairs", r.primitive_pairs },
+            { "triangle_tests", r.triangle_tests },
             { "intersecting_triangles", r.intersecting_triangles }, { "contacts", r.contacts },
             { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
     }
@@ -166,19 +173,6 @@ namespace {
         return text;
     }
 
-    void write_text_atomically(const std::string& path, const std::string& text)
-    {
-        AtomicFile file(path);
-        {
-            std::ofstream out(file.temp_path(), std::ios::binary);
-            out << text;
-            out.close();
-            if (!out)
-                throw_error("{}: cannot write", path);
-        }
-        file.commit();
-    }
-
 } // namespace
 
 void run_simulation(const RunOptions& options)
@@ -204,6 +198,28 @@ void run_simulation(const RunOptions& options)
     }
 
     Simulation simulation(scene, solver_kind);
+    // --reference: read and check the reference before anything is written; the run then
+    // always writes its trajectory cache, to compare at the end.
+    std::unique_ptr<TrajectoryReader> reference;
+    OutputSettings output_settings = scene.output;
+    if (!options.reference.empty()) {
+        reference = std::make_unique<TrajectoryReader>(options.reference);
+        std::vector<std::string> names;
+        std::vector<Index> vertex_counts;
+        for (const Body& body : simulation.bodies()) {
+            names.push_back(body.name);
+            vertex_counts.push_back(body.surface->num_vertices());
+        }
+        check_reference(*reference, names, vertex_counts, Index(frames) + 1);
+        std::error_code same_error;
+        if (std::filesystem::equivalent(
+                options.reference, options.output + "/trajectory.h5", same_error))
+            throw_error("--reference {}: this run would overwrite it (choose another -o)",
+                options.reference);
+        if (std::find(output_settings.formats.begin(), output_settings.formats.end(), "h5")
+            == output_settings.formats.end())
+            output_settings.formats.push_back("h5");
+    }
     if (options.check_collisions && simulation.collision() == nullptr)
         throw_error("--check-collisions: {} has no collision between objects to check (it needs "
                     "solver.collision bounded or lazy, and two objects or self_collision on)",
@@ -218,7 +234,7 @@ void run_simulation(const RunOptions& options)
         { "dt", scene.time.dt }, { "iterations", scene.time.iterations },
         { "steps_per_frame", scene.steps_per_frame }, { "frames", frames },
         { "threads", thread_count() } };
-    Exporter exporter(simulation, scene.output, options.output, run_json.dump());
+    Exporter exporter(simulation, output_settings, options.output, run_json.dump());
     std::unique_ptr<PreviewWriter> preview;
     if (options.preview)
         preview = std::make_unique<PreviewWriter>(
@@ -239,6 +255,8 @@ void run_simulation(const RunOptions& options)
     double export_seconds = 0.0, preview_seconds = 0.0, measure_seconds = 0.0;
     SolverTimings before = total_timings(simulation);
     CollisionReport frame_collision, total_collision;
+    int frame_sleeping_max = 0; ///< most bodies asleep after a step of the frame
+    long sleeping_steps = 0; ///< sum over the steps of the bodies asleep after it
     CollisionCheckCounts frame_check, total_check;
     Timer loop;
 
@@ -278,7 +296,8 @@ void run_simulation(const RunOptions& options)
               if (stats) {
                   const SolverTimings now = total_timings(simulation);
                   nlohmann::json entry { { "frame", frame }, { "time", simulation.time() },
-                      { "steps", simulation.steps() },
+                      { "steps", simulation.steps() }, { "sleeping", simulation.num_sleeping() },
+                      { "sleeping_max", frame_sleeping_max },
                       { "iterations", now.iterations - before.iterations },
                       { "step_seconds", step_seconds },
                       { "phase_seconds", phase_json(now, before, this_export, 1.0) },
@@ -300,9 +319,12 @@ void run_simulation(const RunOptions& options)
         for (auto& r : reports)
             r = StepReport {};
         frame_collision = CollisionReport {};
+        frame_sleeping_max = 0;
         frame_check = CollisionCheckCounts {};
         for (int s = 0; s < scene.steps_per_frame; ++s) {
             simulation.step();
+            frame_sleeping_max = std::max(frame_sleeping_max, simulation.num_sleeping());
+            sleeping_steps += simulation.num_sleeping();
             if (const CollisionWorld* collision = simulation.collision()) {
                 accumulate(frame_collision, collision->last_report());
                 accumulate(total_collision, collision->last_report());
@@ -352,14 +374,30 @@ void run_simulation(const RunOptions& options)
                    preview_seconds, measure_seconds, loop_seconds, steps)
                    .c_str(),
         stdout);
+    if (scene.solver.sleep_speed > 0.0)
+        std::printf("sleeping: %d of %zu bodies at the end, %.2f on average over the steps\n",
+            simulation.num_sleeping(), simulation.bodies().size(),
+            steps > 0 ? static_cast<double>(sleeping_steps) / static_cast<double>(steps) : 0.0);
     if (options.check_collisions)
         std::fputs(check_summary(total_check, largest_diagonal(simulation)).c_str(), stdout);
+    TrajectoryError reference_error;
+    if (reference) {
+        reference_error
+            = trajectory_error(TrajectoryReader(options.output + "/trajectory.h5"), *reference);
+        std::printf("reference error (surface distance to %s, max over frames, %% of the "
+                    "reference's bounding-box diagonal %.4g m): RMS %.6g%%, max %.6g%%\n",
+            options.reference.c_str(), reference_error.diagonal, reference_error.rms_percent,
+            reference_error.max_percent);
+    }
     std::fflush(stdout);
 
     if (stats) {
         nlohmann::json document { { "run", run_json }, { "setup_seconds", setup_seconds },
             { "loop_seconds", loop_seconds }, { "steps", steps },
-            { "peak_rss_bytes", peak_rss_bytes() },
+            { "peak_rss_bytes", peak_rss_bytes() }, { "sleeping", simulation.num_sleeping() },
+            { "sleeping_mean",
+                steps > 0 ? static_cast<double>(sleeping_steps) / static_cast<double>(steps)
+                          : 0.0 },
             { "ms_per_step",
                 phase_json(timings, SolverTimings {}, export_seconds,
                     steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0) },
@@ -369,7 +407,17 @@ void run_simulation(const RunOptions& options)
                 total_collision, steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0);
         if (options.check_collisions)
             document["collision_check"] = check_json(total_check);
-        write_text_atomically(options.stats, document.dump(1) + "\n");
+        if (reference)
+            document["reference_error"] = { { "rms_percent", reference_error.rms_percent },
+                { "max_percent", reference_error.max_percent },
+                { "diagonal", reference_error.diagonal }, { "reference", options.reference },
+                { "frame_rms_percent",
+                    std::vector<double>(reference_error.frame_rms_percent.begin(),
+                        reference_error.frame_rms_percent.end()) },
+                { "frame_max_percent",
+                    std::vector<double>(reference_error.frame_max_percent.begin(),
+                        reference_error.frame_max_percent.end()) } };
+        text_io::write_file_atomically(options.stats, document.dump(1) + "\n");
     }
 }
 

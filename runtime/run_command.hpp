@@ -20,6 +20,13 @@ struct RunOptions {
     bool preview = false;
     int preview_width = 640; ///< pixels
     int preview_height = 480; ///< pixels
+    /// --reference REF.h5, "" for none: a trajectory cache of the same scene (e.g. full-space PD
+    /// at many iterations). The run then always writes OUTDIR/trajectory.h5 (h5 is added to the
+    /// scene's output formats if missing) and, at the end, prints the RMS and max surface
+    /// distance to REF.h5 (runtime/output/trajectory_error.hpp) and adds them to --stats as
+    /// "reference_error": {"rms_percent", "max_percent", "diagonal", "reference",
+    /// "frame_rms_percent", "frame_max_percent"} (the last two: per output frame).
+    std::string reference;
 };
 
 /// Runs the scene. Throws mat::Error on bad input or a failing solve; files already written

@@ -105,6 +105,10 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         ModelOptions options;
         options.time_step = scene.time.dt;
         options.volume_tolerance = scene.solver.volume_tolerance;
+        // Reduced bodies pin softly (solver.reduced_pin_stiffness): stiff pins on every pinned node
+        // freeze each handle whose weights reach into the pinned region (locking).
+        if (solver_kind != SolverKind::full)
+            options.pin_weight_scale = scene.solver.reduced_pin_stiffness;
         std::vector<char> taken(n, 0);
         for (std::size_t p = 0; p < object.pins.size(); ++p) {
             PinGroup group;
@@ -188,6 +192,9 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         }
         body.pin_targets = options.pin_targets;
         update_pin_targets(body, 0.0);
+        if (!body.is_static)
+            body.sleep_speed = scene.solver.sleep_speed
+                * (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
         logger().info("{}: {} nodes, {} tets, {} handles, {} columns, {} pinned nodes", body.name,
             n, body.model->num_tets(), body.num_handles, body.model->num_columns(),
             options.pinned_nodes.size());
@@ -195,10 +202,11 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
     }
 }
 
-void Simulation::update_pin_targets(Body& body, double time)
+bool Simulation::update_pin_targets(Body& body, double time)
 {
     const MatX3& rest = body.model->rest_positions();
     bool moving = false;
+    bool moved_pins = false;
     for (const PinGroup& group : body.pins) {
         if (group.region->motion.empty())
             continue;
@@ -206,12 +214,15 @@ void Simulation::update_pin_targets(Body& body, double time)
         const PinTransform motion = pin_motion_at(*group.region, time, group.centroid);
         for (std::size_t a = 0; a < group.nodes.size(); ++a) {
             const Vec3 moved = motion.apply(rest.row(group.nodes[a]).transpose());
-            body.pin_targets.row(group.slots[a])
+            const Eigen::RowVector3d target
                 = (body.rotation * moved + body.translation).transpose();
+            moved_pins = moved_pins || target != body.pin_targets.row(group.slots[a]);
+            body.pin_targets.row(group.slots[a]) = target;
         }
     }
     if (moving)
         body.solver->set_pin_targets(body.pin_targets);
+    return moved_pins;
 }
 
 void Simulation::move_kinematic(Body& body, double time)
@@ -222,6 +233,58 @@ void Simulation::move_kinematic(Body& body, double time)
     std::swap(body.state, body.next);
 }
 
+int Simulation::num_sleeping() const
+{
+    int count = 0;
+    for (const Body& body : m_bodies)
+        count += body.asleep ? 1 : 0;
+    return count;
+}
+
+void Simulation::wake_touched(std::vector<CollisionBodyState>& states)
+{
+    // The movers are fixed before any body wakes: a body woken now wakes others only once it
+    // has moved, so the result does not depend on the order of the bodies.
+    std::vector<std::size_t> movers;
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        const Body& body = m_bodies[b];
+        if (body.is_kinematic || (!body.is_static && !body.asleep && body.slow_steps == 0))
+            movers.push_back(b);
+    }
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        Body& body = m_bodies[b];
+        if (!body.asleep)
+            continue;
+        const Box3& box = m_collision->body_box(static_cast<Index>(b));
+        for (const std::size_t m : movers)
+            if (box.intersects(m_collision->body_box(static_cast<Index>(m)))) {
+                logger().debug(
+                    "{} wakes at step {}: {} touches it", body.name, m_steps + 1, m_bodies[m].name);
+                body.asleep = false;
+                body.slow_steps = 0;
+                states[b].is_static = false;
+                break;
+            }
+    }
+}
+
+void Simulation::update_sleep(Body& body, bool pins_moved)
+{
+    if (body.sleep_speed <= 0.0)
+        return;
+    const double speed_squared = body.state.velocities.rowwise().squaredNorm().maxCoeff();
+    logger().trace("{}: step {}, fastest node {:.3g} m/s (sleeps below {:.3g})", body.name,
+        m_steps + 1, std::sqrt(speed_squared), body.sleep_speed);
+    body.slow_steps = speed_squared < body.sleep_speed * body.sleep_speed && !pins_moved
+        ? body.slow_steps + 1
+        : 0;
+    if (body.slow_steps >= m_scene.solver.sleep_steps) {
+        logger().debug("{} falls asleep at step {}", body.name, m_steps + 1);
+        body.asleep = true;
+        body.state.velocities.setZero();
+    }
+}
+
 void Simulation::step()
 {
     const double dt = m_scene.time.dt;
@@ -229,30 +292,51 @@ void Simulation::step()
     // Kinematic bodies go first, to where they are at the end of the step: the others' contacts
     // of this step are with them there.
     for (Body& body : m_bodies)
-        if (body.is_kinematic)
+        if (body.is_kinematic) {
             move_kinematic(body, next_time);
+            body.moved = true;
+        }
+    // Pin targets at the end of the step; a sleeping body whose pins move wakes.
+    std::vector<char> pins_moved(m_bodies.size(), 0);
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        Body& body = m_bodies[b];
+        if (body.is_static)
+            continue;
+        pins_moved[b] = update_pin_targets(body, next_time) ? 1 : 0;
+        if (pins_moved[b] && body.asleep) {
+            body.asleep = false;
+            body.slow_steps = 0;
+        }
+    }
     if (m_collision) {
         // Before the first step q does not hold the placement yet: bounds from positions.
         std::vector<CollisionBodyState> states(m_bodies.size());
         for (std::size_t b = 0; b < m_bodies.size(); ++b) {
             const Body& body = m_bodies[b];
             states[b].nodes = &body.state.positions;
-            states[b].is_static = body.is_static;
+            states[b].is_static = body.is_static || body.asleep;
+            states[b].reuse_bounds = !body.moved;
             const auto* semi = dynamic_cast<const SemiReducedSolver*>(body.solver.get());
             if (semi != nullptr && m_steps > 0 && !body.is_static)
                 states[b].q = &semi->reduced_coordinates();
         }
-        const auto& contacts = m_collision->detect(states);
+        m_collision->update_bounds(states);
+        for (Body& body : m_bodies)
+            body.moved = false;
+        wake_touched(states);
+        const auto& contacts = m_collision->find_contacts(states);
         for (std::size_t b = 0; b < m_bodies.size(); ++b)
-            if (!m_bodies[b].is_static)
+            if (!states[b].is_static)
                 m_bodies[b].solver->set_node_contacts(contacts[b]);
     }
-    for (Body& body : m_bodies) {
-        if (body.is_static)
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        Body& body = m_bodies[b];
+        if (body.is_static || body.asleep)
             continue;
-        update_pin_targets(body, next_time);
         body.solver->step(*body.model, body.state, body.next, dt);
         std::swap(body.state, body.next);
+        body.moved = true;
+        update_sleep(body, pins_moved[b] != 0);
     }
     ++m_steps;
 }

@@ -13,6 +13,14 @@
 // step's displacement over dt; the collision world then sees it there, as a mesh collider (it
 // gets no contacts; the others' contact planes lie on its surface). The contact solve has no
 // collider velocity: friction against it acts on the others' motion relative to the world.
+// Sleeping: a dynamic body without moving pins whose nodes have all been slower than
+// solver.sleep_speed x its rest diagonal per second for solver.sleep_steps consecutive steps
+// falls asleep: its velocities are set to zero, its solver is no longer stepped, and the
+// collision world treats it as a static collider that keeps its bounds. It wakes when its pins
+// move or when its box meets the box of a moving body (a kinematic one, or an awake one whose
+// last step was not slow); the boxes are those the collision world computes before the
+// contacts, so a woken body takes part in the same step's contacts. Every decision reads only
+// the bodies' states, in body order: runs do not depend on the thread count.
 
 #include <memory>
 #include <string>
@@ -63,6 +71,13 @@ struct Body {
     /// each primitive's spheres  #P x 3 (-1 unused).
     VecXi surface_primitive;
     MatX3i primitive_spheres;
+    /// Sleeping (scene keys solver.sleep_speed, solver.sleep_steps): a dynamic body that is not
+    /// stepped; its velocities are zero and its positions, collision bounds and surface stay.
+    bool asleep = false;
+    int slow_steps = 0; ///< consecutive steps with every node slower than sleep_speed
+    double sleep_speed = 0.0; ///< m/s: solver.sleep_speed x the rest diagonal (0: never sleeps)
+    /// Moved since the collision world last updated its bounds (else they are reused).
+    bool moved = true;
 };
 
 class Simulation {
@@ -82,9 +97,17 @@ public:
     const std::vector<Body>& bodies() const { return m_bodies; }
     /// The collision pipeline, or null when the scene turns collision off.
     const CollisionWorld* collision() const { return m_collision.get(); }
+    /// Bodies asleep now.
+    int num_sleeping() const;
 
 private:
-    void update_pin_targets(Body& body, double time);
+    /// Sets the pin targets at `time`; whether any moved.
+    bool update_pin_targets(Body& body, double time);
+    /// Wakes the sleeping bodies whose box meets the box of a body that moves (a kinematic
+    /// body, or an awake one whose last step was not slow); the bounds are the last update's.
+    void wake_touched(std::vector<CollisionBodyState>& states);
+    /// After a step: counts the body's slow steps and puts it to sleep after enough.
+    void update_sleep(Body& body, bool pins_moved);
     void move_kinematic(Body& body, double time);
 
     const Scene& m_scene;

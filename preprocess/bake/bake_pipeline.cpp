@@ -156,6 +156,11 @@ namespace {
 
 BakeData run_bake(const BakeOptions& options, BakeReport& report)
 {
+    return run_bake(options, report, nullptr);
+}
+
+BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMesh* generated)
+{
     if (!(options.tet_size > 0 && options.tet_size < 1))
         throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
             options.tet_size);
@@ -190,7 +195,9 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report)
             MedialGeneratorOptions generator = options.generator;
             generator.spheres = options.spheres;
             generator.surface_name = options.surface;
-            input_medial = generate_medial_mesh(bake.surface, generator, &report.medial_quality);
+            input_medial = generated
+                ? *generated
+                : generate_medial_mesh(bake.surface, generator, &report.medial_quality);
             bake.medial_file = fmt::format("(generated: {} spheres)", options.spheres);
             bake.medial_hash = hash_text(format_medial(input_medial));
         });

@@ -22,6 +22,9 @@ struct BakeOptions {
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
     int weights_per_node = 8; ///< K: largest weights kept per node
     double region_alpha = 0.5; ///< handle region: nodes within alpha * radius of the center
+    /// mat-bake --error E (percent of the bbox diagonal): choose the spheres, quadratic handles and
+    /// tet size (preprocess/model_size/); empty: bake as given. run_bake itself ignores it.
+    std::string error;
 };
 
 /// What a bake measured, for the report and for tests.
@@ -53,6 +56,10 @@ struct BakeReport {
 
 /// Runs every stage and returns the bake; fills `report`. Throws mat::Error on bad input.
 BakeData run_bake(const BakeOptions& options, BakeReport& report);
+
+/// The same, with options.spheres > 0 and the medial mesh already generated for it: `generated`
+/// stands for the generator's output (the model-size search bakes one sphere count many times).
+BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMesh* generated);
 
 /// Parses --quadratic: "all", "none" or a list "0,4,7" of handle indices below num_handles.
 Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, Index num_handles);

@@ -6,6 +6,7 @@
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
 #include "preprocess/cli/medial_command.hpp"
+#include "preprocess/model_size/model_size_search.hpp"
 
 namespace mat {
 
@@ -32,10 +33,42 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
     app.add_option("--weights-per-node", options.weights_per_node,
            "Largest handle weights kept per node (sparsity)")
         ->capture_default_str();
+    app.add_option("--error", options.error,
+        "Choose the smallest model (spheres, quadratic handles, tet size) whose error against the "
+        "full-space model on standard load cases stays within this % of the bbox diagonal; "
+        "--spheres is then the most spheres tried, --tet-size the finest");
+}
+
+void run_model_size_command(const BakeOptions& options)
+{
+    if (options.surface.empty() || options.output.empty())
+        throw CLI::RequiredError("mat-bake --error E needs SURFACE and -o");
+    ModelSizeOptions search;
+    search.error_percent = parse_error_percent(options.error);
+    search.bake = options;
+    if (options.quadratic != "none")
+        logger().warn(
+            "--quadratic {} is ignored: --error chooses the quadratic handles", options.quadratic);
+    Timer total;
+    const ModelSizeResult result = choose_model_size(search);
+    write_bake(options.output, result.bake);
+    std::fputs(result.table().c_str(), stdout);
+    std::fputs(result.report.summary().c_str(), stdout);
+    std::printf("chose %lld spheres, quadratic handles %s, tet size %.4g: error rms %.3f%%, max "
+                "%.3f%% of the diagonal (within %g%%), %lld reduced DOF; searched in %.1f s\nwrote "
+                "%s\n",
+        static_cast<long long>(result.chosen.spheres), result.quadratic.c_str(),
+        result.chosen.tet_size, result.chosen.error.rms_percent, result.chosen.error.max_percent,
+        search.error_percent, static_cast<long long>(result.chosen.dof), total.seconds(),
+        options.output.c_str());
 }
 
 void run_bake_command(const BakeOptions& options)
 {
+    if (!options.error.empty()) {
+        run_model_size_command(options);
+        return;
+    }
     if (options.surface.empty() || (options.medial.empty() && options.spheres <= 0)
         || options.output.empty())
         throw CLI::RequiredError(

@@ -11,6 +11,10 @@ namespace mat {
 /// Adds the bake's positional surface and its options to the top-level app.
 void add_bake_options(CLI::App& app, BakeOptions& options);
 
+/// mat-bake --error E: chooses the model's size (model_size_search.hpp), writes the chosen bake
+/// atomically, prints every candidate tried and the chosen one.
+void run_model_size_command(const BakeOptions& options);
+
 /// Runs the bake, writes the file atomically, prints the summary and the stage table.
 void run_bake_command(const BakeOptions& options);
 

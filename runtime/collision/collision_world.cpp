@@ -161,6 +161,10 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     });
 
     // The body's primitives in the world, radii grown by half the margin, and their boxes.
+    body.items.clear();
+    body.primitives.clear();
+    body.balls.clear();
+    body.box.setEmpty();
     for (Index p = 0; p < body.bounds.num_primitives(); ++p) {
         BroadPhaseItem item;
         item.body = static_cast<int>(b);
@@ -182,40 +186,101 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
         double reach = 0.0;
         for (int i = 0; i < prim.count; ++i)
             reach = std::max(reach, (prim.centers[i] - mean).norm() + prim.radii[i]);
-        m_items.push_back(item);
-        m_primitives.push_back(prim);
-        m_balls.emplace_back(mean.x(), mean.y(), mean.z(), reach);
+        body.box.extend(item.box);
+        body.items.push_back(item);
+        body.primitives.push_back(prim);
+        body.balls.emplace_back(mean.x(), mean.y(), mean.z(), reach);
     }
+    body.has_bounds = true;
 }
 
 const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     const std::vector<CollisionBodyState>& states)
 {
+    update_bounds(states);
+    return find_contacts(states);
+}
+
+void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states)
+{
     MAT_CHECK(states.size() == m_bodies.size(), "collision: {} states for {} bodies", states.size(),
         m_bodies.size());
     m_report = CollisionReport {};
+    if (!m_settings.enabled || m_bodies.empty())
+        return;
+    double diagonal = 0.0;
+    for (const Body& body : m_bodies)
+        diagonal = std::max(diagonal, body.diagonal);
+    m_margin = m_settings.margin * diagonal;
+
+    // 1. Bounds, and the surfaces, nodes and primitives in world coordinates, except for the
+    //    bodies that have not moved.
+    Timer timer;
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        if (states[b].reuse_bounds && m_bodies[b].has_bounds)
+            continue;
+        update_body(b, states[b], m_margin);
+        ++m_report.updated_bodies;
+    }
+    m_report.bounds_seconds = timer.seconds();
+}
+
+const std::vector<std::vector<NodeContact>>& CollisionWorld::find_contacts(
+    const std::vector<CollisionBodyState>& states)
+{
+    MAT_CHECK(states.size() == m_bodies.size(), "collision: {} states for {} bodies", states.size(),
+        m_bodies.size());
     for (auto& c : m_contacts)
         c.clear();
     m_intersecting.clear();
     if (!m_settings.enabled || m_bodies.empty())
         return m_contacts;
-    double diagonal = 0.0;
-    for (const Body& body : m_bodies)
-        diagonal = std::max(diagonal, body.diagonal);
-    const double margin = m_settings.margin * diagonal;
+    const double margin = m_margin;
 
-    // 1. Bounds, and the surfaces, nodes and primitives in world coordinates.
+    // 2. Object level: the pairs of bodies that go on, and the bodies to hash.
     Timer timer;
+    const std::size_t n_bodies = m_bodies.size();
+    m_hashed.assign(n_bodies, 0);
+    m_object_pair.assign(n_bodies * n_bodies, 0);
+    for (std::size_t a = 0; a < n_bodies; ++a) {
+        if (m_settings.self && !states[a].is_static)
+            m_hashed[a] = 1;
+        for (std::size_t b = a + 1; b < n_bodies; ++b) {
+            if (states[a].is_static && states[b].is_static)
+                continue;
+            if (m_settings.object_culling && !m_bodies[a].box.intersects(m_bodies[b].box))
+                continue;
+            m_object_pair[a * n_bodies + b] = 1;
+            m_hashed[a] = m_hashed[b] = 1;
+            ++m_report.object_pairs;
+        }
+    }
     m_items.clear();
     m_primitives.clear();
     m_balls.clear();
-    for (std::size_t b = 0; b < m_bodies.size(); ++b)
-        update_body(b, states[b], margin);
-    m_report.bounds_seconds = timer.seconds();
+    for (std::size_t b = 0; b < n_bodies; ++b) {
+        if (!m_hashed[b])
+            continue;
+        ++m_report.hashed_bodies;
+        const Body& body = m_bodies[b];
+        m_items.insert(m_items.end(), body.items.begin(), body.items.end());
+        m_primitives.insert(m_primitives.end(), body.primitives.begin(), body.primitives.end());
+        m_balls.insert(m_balls.end(), body.balls.begin(), body.balls.end());
+    }
+    // Whether two items' bodies may collide: the same awake body with self-collision on, or
+    // an object pair that goes on.
+    const auto bodies_collide = [&](int a, int b) {
+        if (a == b)
+            return m_settings.self && !states[static_cast<std::size_t>(a)].is_static;
+        const auto [lo, hi] = std::minmax(a, b);
+        return m_object_pair[static_cast<std::size_t>(lo) * n_bodies + static_cast<std::size_t>(hi)]
+            != 0;
+    };
 
-    // 2. Broad phase.
-    timer.restart();
-    if (m_settings.all_pairs) {
+    // 3. Broad phase.
+    if (m_items.empty()) {
+        m_pairs.clear();
+    } else if (m_settings.all_pairs) {
         m_pairs.clear();
         const int n = static_cast<int>(m_items.size());
         for (int i = 0; i < n; ++i)
@@ -230,7 +295,7 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     m_report.primitive_candidates = static_cast<int>(m_pairs.size());
     m_report.hash_seconds = timer.seconds();
 
-    // 3. Exact primitive tests, in parallel; kept in candidate order.
+    // 4. Exact primitive tests, in parallel; kept in candidate order.
     timer.restart();
     m_hit.assign(m_pairs.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_pairs.size(), 32),
@@ -239,8 +304,7 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
                 const auto [i, j] = m_pairs[k];
                 const BroadPhaseItem& a = m_items[static_cast<std::size_t>(i)];
                 const BroadPhaseItem& b = m_items[static_cast<std::size_t>(j)];
-                if ((a.body == b.body && !m_settings.self)
-                    || (states[a.body].is_static && states[b.body].is_static))
+                if (!bodies_collide(a.body, b.body))
                     continue;
                 const Eigen::Vector4d& ball_a = m_balls[static_cast<std::size_t>(i)];
                 const Eigen::Vector4d& ball_b = m_balls[static_cast<std::size_t>(j)];
@@ -257,12 +321,12 @@ const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
     m_report.primitive_pairs = static_cast<int>(m_colliding.size());
     m_report.primitive_seconds = timer.seconds();
 
-    // 4. Narrow phase.
+    // 5. Narrow phase.
     timer.restart();
     narrow_phase(states, margin);
     m_report.triangle_seconds = timer.seconds();
 
-    // 5. Contacts.
+    // 6. Contacts.
     timer.restart();
     respond(states);
     m_report.response_seconds = timer.seconds();

@@ -8,20 +8,26 @@
 //      exact update is also the cheaper one); the handle bound from q
 //      (`bounds_from_positions = false`) and the lazy update are kept for comparison; then the
 //      primitives are placed in the world;
-//   2. broad phase: a spatial hash over the primitives' boxes grown by the contact margin
-//      (object-object pairs, and self pairs of primitives that share no medial sphere);
-//   3. exact primitive tests on those pairs (radii grown by half the margin each), after a quick
+//      a body that has not moved since the last step (a sleeping or static body,
+//      CollisionBodyState::reuse_bounds) keeps its bounds, surface and boxes: nothing is
+//      recomputed for it;
+//   2. object level: each body's box (its primitives' boxes, so grown by the margin) against
+//      the others'; only pairs of bodies whose boxes meet and of which one is dynamic go on,
+//      and only the bodies in such a pair (or awake with self-collision on) are hashed;
+//   3. broad phase: a spatial hash over those bodies' primitive boxes (object-object pairs
+//      within the object pairs, and self pairs of primitives that share no medial sphere);
+//   4. exact primitive tests on those pairs (radii grown by half the margin each), after a quick
 //      rejection of pairs whose bounding balls are apart;
-//   4. narrow phase (narrow_phase.hpp) over the colliding primitive pairs, only among the
+//   5. narrow phase (narrow_phase.hpp) over the colliding primitive pairs, only among the
 //      surface triangles and boundary nodes of colliding primitives inside their pairs' overlap
 //      regions, each candidate found and tested once however many pairs share it: exact
 //      triangle-triangle intersection and, for the response, nodes against the other side's
 //      triangles (closest point within the margin, or behind the triangle);
-//   5. response: one contact per node with a separating plane through the midpoint between
+//   6. response: one contact per node with a separating plane through the midpoint between
 //      the node and its closest point (both bodies dynamic: each side is kept on its half, so
-//      neither is pushed twice) or through the closest point (a static body), solved by the
-//      solver's exact Signorini-Coulomb contact solve inside every PD iteration.
-// Phases 1, 3 and 4 run in parallel (TBB) over flat arrays kept as members, so a step allocates
+//      neither is pushed twice) or through the closest point (a static or sleeping body),
+//      solved by the solver's exact Signorini-Coulomb contact solve inside every PD iteration.
+// Phases 1, 4 and 5 run in parallel (TBB) over flat arrays kept as members, so a step allocates
 // nothing once warm; per-thread results are merged in a fixed order (sorted by a total order),
 // so the result does not depend on the thread count.
 // Contact acts on tet-mesh boundary nodes (which Mesh_3 puts on the surface); friction is
@@ -53,10 +59,16 @@ struct CollisionSettings {
     /// Exact primitive test on every pair instead of the spatial hash (the reference code's
     /// broad phase; for benchmarks).
     bool all_pairs = false;
+    /// Object-level culling (phase 2); false: every body is hashed and every pair of bodies
+    /// goes on (the result is the same; for tests and comparison).
+    bool object_culling = true;
 };
 
 /// What the last detect() found and how long each phase took.
 struct CollisionReport {
+    int updated_bodies = 0; ///< bodies whose bounds were recomputed
+    int object_pairs = 0; ///< pairs of bodies whose boxes meet, one of them dynamic
+    int hashed_bodies = 0; ///< bodies whose primitives went to the broad phase
     int primitive_candidates = 0; ///< broad-phase pairs
     int primitive_pairs = 0; ///< pairs that pass the exact primitive test
     long triangle_tests = 0; ///< distinct triangle pairs tested (their boxes overlap)
@@ -79,7 +91,11 @@ struct CollisionBodyState {
     const MatX* q = nullptr;
     Mat3 rotation = Mat3::Identity(); ///< world = R x + t for solver coordinates x
     Vec3 translation = Vec3::Zero();
-    bool is_static = false; ///< gets no contacts (a mesh collider)
+    /// Gets no contacts (a mesh collider: a static, kinematic or sleeping body).
+    bool is_static = false;
+    /// The body has not moved since the last update: its bounds, surface and boxes are reused
+    /// (a sleeping or static body; ignored before its first update).
+    bool reuse_bounds = false;
 };
 
 class CollisionWorld {
@@ -93,6 +109,17 @@ public:
     /// body, its node contacts in its solver's coordinates.
     const std::vector<std::vector<NodeContact>>& detect(
         const std::vector<CollisionBodyState>& states);
+
+    /// The same in two parts: phase 1 (bounds and world boxes; body_box() then holds each
+    /// body's box), then phases 2 to 6 on the same bodies (their is_static may have changed in
+    /// between: a woken body).
+    void update_bounds(const std::vector<CollisionBodyState>& states);
+    const std::vector<std::vector<NodeContact>>& find_contacts(
+        const std::vector<CollisionBodyState>& states);
+
+    /// Body b's world box at the last update: its enlarged primitives' boxes, radii grown by
+    /// half the margin (empty before the first update).
+    const Box3& body_box(Index b) const { return m_bodies[b].box; }
 
     const CollisionReport& last_report() const { return m_report; }
     /// The distinct intersecting triangle pairs of the last detect(), sorted.
@@ -127,6 +154,12 @@ private:
         MatX3 surface; ///< #Vs x 3
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
+        // Phase 1 output, kept while the body does not move.
+        bool has_bounds = false;
+        Box3 box; ///< union of the item boxes
+        std::vector<BroadPhaseItem> items; ///< per primitive
+        std::vector<Primitive> primitives; ///< per primitive, world coordinates
+        std::vector<Eigen::Vector4d, Eigen::aligned_allocator<Eigen::Vector4d>> balls;
     };
 
     CollisionSettings m_settings;
@@ -136,10 +169,12 @@ private:
     void respond(const std::vector<CollisionBodyState>& states);
 
     SpatialHash m_hash;
-    std::vector<BroadPhaseItem> m_items; ///< one per primitive of every body
+    std::vector<BroadPhaseItem> m_items; ///< one per primitive of every hashed body
     std::vector<Primitive> m_primitives; ///< per item, world coordinates, radii + margin / 2
     /// per item, a ball holding the primitive: center x y z, radius
     std::vector<Eigen::Vector4d, Eigen::aligned_allocator<Eigen::Vector4d>> m_balls;
+    std::vector<char> m_hashed; ///< per body: its items are in m_items
+    std::vector<char> m_object_pair; ///< #bodies x #bodies (a < b): the pair goes on
     std::vector<ItemPair> m_pairs; ///< broad-phase candidates
     std::vector<char> m_hit; ///< per candidate: the primitives intersect
     std::vector<ItemPair> m_colliding;
@@ -148,6 +183,7 @@ private:
     NarrowPhase m_narrow;
     std::vector<FacePair> m_intersecting;
     std::vector<std::vector<NodeContact>> m_contacts;
+    double m_margin = 0.0; ///< absolute, from the last update_bounds
     CollisionReport m_report;
 };
 

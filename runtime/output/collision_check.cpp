@@ -234,7 +234,9 @@ CollisionCheckCounts check_collisions(const Simulation& simulation)
     for (const TrianglePair& pair : truth) {
         const Body& a = bodies[static_cast<std::size_t>(pair[0])];
         const Body& b = bodies[static_cast<std::size_t>(pair[2])];
-        if (a.is_static && b.is_static)
+        // Pairs the world does not look for: between bodies that do not move (static, kinematic
+        // or asleep), and within a sleeping body.
+        if ((a.is_static || a.asleep) && (b.is_static || b.asleep))
             continue;
         const bool far = pair[0] != pair[2]
             || faces_in_non_adjacent_primitives(

@@ -37,7 +37,12 @@ struct SolverSettings {
     std::string self_collision; ///< "on" or "off"
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
+    /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed
+    /// x its rest bounding-box diagonal per second; 0 = never.
+    double sleep_speed = 0.0;
+    int sleep_steps = 0; ///< consecutive slow steps before an object sleeps
     int hyper_samples = 0; ///< tets in the hyper-reduced local step (0: automatic)
+    double reduced_pin_stiffness = 0.0; ///< ModelOptions::pin_weight_scale of reduced bodies
 };
 
 struct MaterialSettings {

@@ -172,12 +172,33 @@ namespace {
                 .set_default(0.3)
                 .at_least(0)
                 .set_doc("Coulomb friction coefficient between objects"),
+            value_key(S::solver, "sleep_speed", T::number, &SolverSettings::sleep_speed)
+                .set_default(0.01)
+                .at_least(0)
+                .set_doc("a dynamic object without moving pins sleeps (is not stepped, keeps its "
+                         "place and collision bounds) once every node has been slower than this "
+                         "many rest bounding-box diagonals per second for sleep_steps steps; it "
+                         "wakes when a moving object's bounds meet its own or its pins move; 0 "
+                         "turns sleeping off"),
+            value_key(S::solver, "sleep_steps", T::integer, &SolverSettings::sleep_steps)
+                .set_default(30)
+                .at_least(1)
+                .set_doc("consecutive slow steps before an object sleeps (see sleep_speed)"),
             value_key(S::solver, "hyper_samples", T::integer, &SolverSettings::hyper_samples)
                 .set_default(0)
                 .at_least(0)
                 .set_doc("tets sampled by the hyper-reduced solver (--solver hyper), 0 for twice "
                          "as many as the model has reduced coordinates per axis; more is slower "
                          "and closer to semi-reduced (equal with every tet)"),
+            value_key(S::solver, "reduced_pin_stiffness", T::number,
+                &SolverSettings::reduced_pin_stiffness)
+                .set_default(1.0)
+                .above(0)
+                .set_doc("pin weight of semi- and hyper-reduced bodies, relative to the largest "
+                         "diagonal entry of the system matrix (full-space pins use 1e8): stiff "
+                         "pins on a reduced body freeze every handle whose weights reach into "
+                         "the pinned region; at 1 a stiff cantilever's error against full-space "
+                         "PD is 1.8% RMS instead of 5.3% (16 handles)"),
 
             // objects[]
             value_key(S::object, "name", T::string, &ObjectSettings::name)

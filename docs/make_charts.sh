@@ -1,0 +1,170 @@
+#!/usr/bin/env bash
+# make_charts.sh [BUILD_DIR]
+# Speed against accuracy: regenerates docs/charts/SCENE.svg (error against milliseconds per step,
+# log-log, one series per method) and the results table in README.md (between the markers
+# <!-- charts:begin --> and <!-- charts:end -->).
+#
+# For each scene docs/charts/SCENE.json (a stiff cantilever, a soft drop on the ground, a
+# twisting limb) it bakes the scene's surface with several handle counts, linear and quadratic
+# (same surface and tet size, so the surface vertices correspond), runs
+#   the reference:   full-space PD at REF_ITERATIONS iterations per step,
+#   full-space PD:   at each of FULL_ITERATIONS,
+#   reduced methods: each of REDUCED_METHODS (SOLVER:QUADRATIC) on each handle count of HANDLES
+#                    at the scene's 10 iterations (hyper is used only once mat-run accepts
+#                    --solver hyper),
+# with `mat-run --stats --reference`, and collects ms per step (local + rhs + solve +
+# reconstruct + contact, one thread: export and measures excluded) and the RMS and max surface
+# distance to the reference (% of the bounding-box diagonal, max over frames) into
+# WORK/results.csv; then tests/bench/speed_accuracy_chart writes the SVGs and the table.
+#
+#   docs/make_charts.sh                      tools from build/ (needs the speed_accuracy_chart
+#                                            target: -DMAT_BUILD_BENCHMARKS=ON)
+#   docs/make_charts.sh build-release
+#   CHARTS_WORK=/tmp/charts docs/make_charts.sh   work directory (bakes, runs; default BUILD/charts)
+#   CHARTS_ONLY=1 docs/make_charts.sh        only redraw the charts and table from WORK/results.csv
+# Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_ITERATIONS,
+# FULL_ITERATIONS, HANDLES, REDUCED_METHODS, SCENES, THREADS (default 1).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="$(cd "${1:-$root/build}" && pwd)"
+bake="${MAT_BAKE:-$build/preprocess/mat-bake}"
+run="${MAT_RUN:-$build/runtime/mat-run}"
+chart="${MAT_CHART:-$build/tests/bench/speed_accuracy_chart}"
+work="${CHARTS_WORK:-$build/charts}"
+threads="${THREADS:-1}"
+for tool in "$bake" "$run" "$chart"; do
+    [ -x "$tool" ] || { echo "make_charts: no $tool (build it, or pass the build directory)" >&2; exit 1; }
+done
+
+# The data: what is run. The reference's own error is reported as the distance between full-space
+# PD at REF_ITERATIONS and at half as many (the last full-space point).
+REF_ITERATIONS="${REF_ITERATIONS:-400}"
+FULL_ITERATIONS="${FULL_ITERATIONS:-1 2 5 10 20 50 100 200}"
+HANDLES="${HANDLES:-4 8 16 24}"
+REDUCED_METHODS="${REDUCED_METHODS:-semi:none semi:all hyper:none hyper:all}"
+# scene:surface (relative to the repository), baked with tets of TET_SIZE of the diagonal.
+SCENES="${SCENES:-cantilever:samples/rounded_bar/rounded_bar.obj soft_drop:samples/torus/torus.obj twisting_limb:samples/capsule/capsule.obj}"
+TET_SIZE="${TET_SIZE:-0.04}"
+
+# Reduced solvers this mat-run has (hyper slots in once `--solver hyper` is accepted).
+solver_available() {
+    "$run" --help | grep -A1 -- '--solver' | grep -q "$1"
+}
+method_label() { # SOLVER QUADRATIC
+    local name
+    case "$1" in
+        semi) name="semi-reduced PD" ;;
+        hyper) name="hyper-reduced PD" ;;
+        *) name="$1" ;;
+    esac
+    if [ "$2" = all ]; then echo "$name (quadratic)"; else echo "$name (linear)"; fi
+}
+
+# ms per step (solver phases) and the reference error from a --stats file: "ms rms max".
+read_stats() {
+    awk '
+        /"ms_per_step": \{/ { inside = 1; next }
+        inside && /\}/ { inside = 0 }
+        inside && /"(local|rhs|solve|reconstruct|contact)":/ { gsub(/[",]/, ""); ms += $2 }
+        /"rms_percent":/ { gsub(/[",]/, ""); rms = $2 }
+        /"max_percent":/ { gsub(/[",]/, ""); max = $2 }
+        END { if (rms == "" || max == "") exit 1; printf "%.6g %.6g %.6g\n", ms, rms, max }
+    ' "$1"
+}
+
+# scene_copy SCENE_JSON BAKE ITERATIONS OUT: the scene with its bake and iterations replaced.
+scene_copy() {
+    sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" \
+        -e "s|\"iterations\": *[0-9]*|\"iterations\": $3|" "$1" > "$4"
+    grep -q "\"bake\": \"$2\"" "$4" || { echo "make_charts: could not set the bake in $4" >&2; exit 1; }
+}
+
+mkdir -p "$work"
+csv="$work/results.csv"
+start_all=$(date +%s)
+if [ -n "${CHARTS_ONLY:-}" ]; then
+    [ -s "$csv" ] || { echo "make_charts: CHARTS_ONLY: no $csv (run once without it)" >&2; exit 1; }
+else
+echo "scene,method,parameter,value,ms_per_step,rms_percent,max_percent" > "$csv.tmp"
+for entry in $SCENES; do
+    scene="${entry%%:*}"; surface="$root/${entry#*:}"
+    json="$root/docs/charts/$scene.json"
+    dir="$work/$scene"
+    mkdir -p "$dir"
+    echo "make_charts: $scene"
+    # Bakes: every handle count, linear and quadratic. A count the surface cannot carry (the
+    # bake reports a rank-deficient basis) is left out with a note.
+    baked=""
+    for n in $HANDLES; do
+        for q in none all; do
+            out="$dir/bake_${TET_SIZE}_${n}_$q.h5"
+            if [ ! -s "$out" ] || [ "$out" -ot "$surface" ]; then
+                if ! "$bake" "$surface" --spheres "$n" --samples 5000 --tet-size "$TET_SIZE" \
+                    --quadratic "$q" -o "$out" --log-level warn > "$dir/bake_${n}_$q.log" 2>&1; then
+                    echo "make_charts:   $n handles ($q quadratic) left out: $(tail -1 "$dir/bake_${n}_$q.log")"
+                    continue
+                fi
+            fi
+            baked="$baked ${n}_$q"
+        done
+    done
+    first="$(echo $baked | cut -d' ' -f1)"
+    [ -n "$first" ] || { echo "make_charts: $scene: no bake succeeded" >&2; exit 1; }
+    full_bake="$dir/bake_${TET_SIZE}_$first.h5"
+
+    # The reference (full-space at REF_ITERATIONS), written as h5 by the scene's own output.
+    # It is kept between runs of this script while the scene, the bake and mat-run are older.
+    ref="reference_$REF_ITERATIONS"
+    reference="$dir/$ref/trajectory.h5"
+    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$ref.json"
+    if [ ! -s "$reference" ] || [ "$reference" -ot "$json" ] || [ "$reference" -ot "$full_bake" ] \
+        || [ "$reference" -ot "$run" ]; then
+        "$run" "$dir/$ref.json" -o "$dir/$ref" --solver full --threads "$threads" \
+            --log-level warn > "$dir/$ref.log"
+    fi
+
+    # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME
+    run_one() {
+        scene_copy "$json" "$5" "$6" "$dir/$7.json"
+        "$run" "$dir/$7.json" -o "$dir/$7" --solver "$4" --threads "$threads" --log-level warn \
+            --reference "$reference" --stats "$dir/$7.stats.json" > "$dir/$7.log"
+        local stats
+        stats="$(read_stats "$dir/$7.stats.json")" \
+            || { echo "make_charts: $dir/$7.stats.json: no timings or reference error" >&2; exit 1; }
+        set -- "$1" "$2" "$3" $stats
+        echo "$scene,$1,$2,$3,$4,$5,$6" >> "$csv.tmp"
+        printf 'make_charts:   %-28s %-10s %4s  %9.3f ms/step  RMS %8.4f%%  max %8.4f%%\n' \
+            "$1" "$2" "$3" "$4" "$5" "$6"
+    }
+    for it in $FULL_ITERATIONS; do
+        run_one "full-space PD" iterations "$it" full "$full_bake" "$it" "full_$it"
+    done
+    for method in $REDUCED_METHODS; do
+        solver="${method%%:*}"; q="${method#*:}"
+        if ! solver_available "$solver"; then
+            echo "make_charts:   $(method_label "$solver" "$q"): mat-run has no --solver $solver, left out"
+            continue
+        fi
+        for n in $HANDLES; do
+            case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
+            run_one "$(method_label "$solver" "$q")" handles "$n" "$solver" "$dir/bake_${TET_SIZE}_${n}_$q.h5" \
+                10 "${solver}_${n}_$q"
+        done
+    done
+done
+mv "$csv.tmp" "$csv"
+fi
+
+# The charts and the table; the table replaces the README's between the markers.
+"$chart" "$csv" "$root/docs/charts" "$work/table.md" \
+    --note "reference: full-space PD at $REF_ITERATIONS iterations per step; ms per step with $threads thread(s)"
+readme="$root/README.md"
+grep -q '^<!-- charts:begin -->$' "$readme" && grep -q '^<!-- charts:end -->$' "$readme" \
+    || { echo "make_charts: $readme has no <!-- charts:begin --> / <!-- charts:end --> lines" >&2; exit 1; }
+awk -v table="$work/table.md" '
+    /^<!-- charts:begin -->$/ { print; while ((getline line < table) > 0) print line; skip = 1; next }
+    /^<!-- charts:end -->$/ { skip = 0 }
+    !skip { print }
+' "$readme" > "$readme.tmp"
+mv "$readme.tmp" "$readme"
+echo "make_charts: wrote docs/charts/*.svg, $csv and the README table in $(( $(date +%s) - start_all )) s"
