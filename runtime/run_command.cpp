@@ -340,6 +340,8 @@ void run_simulation(const RunOptions& options)
                 total_check.add(check);
             }
             for (std::size_t b = 0; b < reports.size(); ++b) {
+                if (simulation.bodies()[b].asleep)
+                    continue; // not stepped: its solver's report is of an earlier step
                 const StepReport& last = simulation.bodies()[b].solver->last_report();
                 reports[b].contacts = std::max(reports[b].contacts, last.contacts);
                 reports[b].active_contacts

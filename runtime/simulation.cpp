@@ -245,10 +245,16 @@ void Simulation::wake_touched(std::vector<CollisionBodyState>& states)
 {
     // The movers are fixed before any body wakes: a body woken now wakes others only once it
     // has moved, so the result does not depend on the order of the bodies.
-    std::vector<std::size_t> movers;
+    // A kinematic body moves if its prescribed motion displaced it this step (a stopped one wakes
+    // nothing); an awake dynamic body if its last step was not slow.
+    std::vector<std::size_t>& movers = m_movers;
+    movers.clear();
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
         const Body& body = m_bodies[b];
-        if (body.is_kinematic || (!body.is_static && !body.asleep && body.slow_steps == 0))
+        const bool moving = body.is_kinematic
+            ? body.state.velocities.cwiseAbs().maxCoeff() > 0.0
+            : !body.is_static && !body.asleep && body.slow_steps == 0;
+        if (moving)
             movers.push_back(b);
     }
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
@@ -297,7 +303,8 @@ void Simulation::step()
             body.moved = true;
         }
     // Pin targets at the end of the step; a sleeping body whose pins move wakes.
-    std::vector<char> pins_moved(m_bodies.size(), 0);
+    std::vector<char>& pins_moved = m_pins_moved;
+    pins_moved.assign(m_bodies.size(), 0);
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
         Body& body = m_bodies[b];
         if (body.is_static)
@@ -310,7 +317,8 @@ void Simulation::step()
     }
     if (m_collision) {
         // Before the first step q does not hold the placement yet: bounds from positions.
-        std::vector<CollisionBodyState> states(m_bodies.size());
+        std::vector<CollisionBodyState>& states = m_states;
+        states.assign(m_bodies.size(), CollisionBodyState {});
         for (std::size_t b = 0; b < m_bodies.size(); ++b) {
             const Body& body = m_bodies[b];
             states[b].nodes = &body.state.positions;

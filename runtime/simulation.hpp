@@ -112,6 +112,10 @@ private:
 
     const Scene& m_scene;
     std::vector<Body> m_bodies;
+    // Per-step workspace (kept to allocate nothing per step).
+    std::vector<CollisionBodyState> m_states;
+    std::vector<char> m_pins_moved;
+    std::vector<std::size_t> m_movers;
     std::unique_ptr<CollisionWorld> m_collision;
     SolverKind m_solver_kind = SolverKind::semi_reduced;
     long m_steps = 0;

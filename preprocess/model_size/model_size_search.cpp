@@ -99,6 +99,7 @@ namespace {
         Index m_first = 0; ///< the sphere count of the reference and the tet-size candidates
         ModelSizeResult m_result;
         bool m_have_choice = false;
+        double m_closest = 0.0; ///< the largest linear count's error, when none is within E
     };
 
     const MedialMesh& Search::medial(Index spheres)
@@ -124,10 +125,12 @@ namespace {
         bake_options.spheres = m_generated ? spheres : 0;
         BakeReport report;
         BakeData bake;
+        // The medial mesh first: its failures are errors, not a reason to refine the tets.
+        const MedialMesh* generated = m_generated ? &medial(spheres) : nullptr;
         for (;;) {
             bake_options.tet_size = tet_size;
             try {
-                bake = run_bake(bake_options, report, m_generated ? &medial(spheres) : nullptr);
+                bake = run_bake(bake_options, report, generated);
                 if (m_generated)
                     report.medial_quality = m_medial.at(spheres).second;
                 break;
@@ -136,7 +139,8 @@ namespace {
                 // for this and every later reduced candidate.
                 const double finer
                     = std::max(m_options.bake.tet_size, tet_size / m_options.tet_growth);
-                if (full_space || !(finer < tet_size))
+                if (full_space || !(finer < tet_size)
+                    || std::string(error.what()).find("rank-deficient") == std::string::npos)
                     throw;
                 logger().info("{} spheres at tet size {:.4g}: {}; tet size {:.4g} from now on",
                     spheres, tet_size, error.what(), finer);
@@ -229,11 +233,10 @@ namespace {
             }
             m_failed[n] = e.residuals;
             low = n;
-            if (n == largest)
-                throw_error("{}: no model within {}% of the diagonal up to {} spheres (the "
-                            "closest: {:.3f}%); allow a larger --error or more --spheres",
-                    m_options.bake.surface, m_options.error_percent, largest,
-                    e.row.error.max_percent);
+            if (n == largest) {
+                m_closest = e.row.error.max_percent;
+                return 0; // no linear answer
+            }
         }
         // Bisection down to a step of about 1/8 of the count.
         while (low > 0 && high - low > std::max<Index>(1, low / 8)) {
@@ -289,6 +292,21 @@ namespace {
 
         if (m_generated) {
             const Index linear = choose_spheres();
+            // No linear answer up to the largest count: quadratic handles there, as many as needed.
+            if (linear == 0) {
+                const auto largest = m_failed.rbegin();
+                const Index m = largest->second.size();
+                Index count = 1;
+                while (
+                    !try_quadratic(largest->first, largest->second, count / 2, count) && count < m)
+                    count = std::min(2 * count, m);
+                if (!m_have_choice)
+                    throw_error(
+                        "{}: no model within {}% of the diagonal up to {} spheres, also with "
+                        "quadratic handles (the closest linear: {:.3f}%); allow a larger "
+                        "--error or more --spheres",
+                        m_options.bake.surface, m_options.error_percent, largest->first, m_closest);
+            }
             const Index linear_columns = m_result.chosen.dof / 3;
             // At the largest failed counts, quadratic handles instead of more spheres: a linear
             // handle has 4 basis columns, a quadratic one 10.

@@ -179,7 +179,7 @@ void HyperReducedSolver::local_global(const Model& model, int iteration,
     timings.reconstruct += timer.seconds();
 
     timer.restart();
-    m_local->compute(model, m_positions, m_forces);
+    m_local->compute_touched(model, m_positions, m_forces);
     timings.local += timer.seconds();
 
     timer.restart();

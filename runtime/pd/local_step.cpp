@@ -192,6 +192,9 @@ LocalStep::LocalStep(const Model& model, bool exact, const std::vector<int>& ids
     }
     for (Index i = 0; i < n; ++i)
         m_node_slot_offsets[i + 1] += m_node_slot_offsets[i];
+    for (Index i = 0; i < n; ++i)
+        if (m_node_slot_offsets[i + 1] > m_node_slot_offsets[i])
+            m_touched.push_back(static_cast<int>(i));
     m_slot_sums.assign(3 * static_cast<std::size_t>(next), 0.0);
 }
 
@@ -200,6 +203,12 @@ void LocalStep::compute(
 {
     rhs.setZero();
     run(model, positions, nullptr, rhs);
+}
+
+void LocalStep::compute_touched(
+    const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs)
+{
+    run(model, positions, nullptr, rhs, true);
 }
 
 void LocalStep::accumulate(
@@ -217,7 +226,7 @@ void LocalStep::assemble(const Model& model, const Eigen::Ref<const MatX3>& posi
 }
 
 void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions,
-    const double* base, Eigen::Ref<MatX3> rhs)
+    const double* base, Eigen::Ref<MatX3> rhs, bool touched_only)
 {
     const Index n = model.num_nodes();
     MAT_CHECK(positions.rows() == n && rhs.rows() == n,
@@ -301,15 +310,24 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
     const double* sums = m_slot_sums.data();
     const int* offsets = m_node_slot_offsets.data();
     const int* slots = m_node_slots.data();
+    const int* touched = m_touched.data();
+    const Index count = touched_only ? static_cast<Index>(m_touched.size()) : n;
     tbb::parallel_for(
-        tbb::blocked_range<Index>(0, n, 1024), [&](const tbb::blocked_range<Index>& range) {
-            for (Index i = range.begin(); i != range.end(); ++i) {
+        tbb::blocked_range<Index>(0, count, 1024), [&](const tbb::blocked_range<Index>& range) {
+            for (Index r = range.begin(); r != range.end(); ++r) {
+                const Index i = touched_only ? touched[r] : r;
                 double s0 = 0.0, s1 = 0.0, s2 = 0.0;
                 for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
                     const double* v = sums + 3 * slots[j];
                     s0 += v[0];
                     s1 += v[1];
                     s2 += v[2];
+                }
+                if (touched_only) {
+                    out[3 * i] = s0;
+                    out[3 * i + 1] = s1;
+                    out[3 * i + 2] = s2;
+                    continue;
                 }
                 const double* in = base != nullptr ? base + 3 * i : out + 3 * i;
                 out[3 * i] = in[0] + s0;

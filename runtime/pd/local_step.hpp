@@ -57,6 +57,10 @@ public:
     /// the next call's warm start.
     void compute(
         const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
+    /// The same sum written to the rows of the nodes the tets touch only (the other rows of `rhs`
+    /// are left as they are): for a subset of the tets, no work per step on the other nodes.
+    void compute_touched(
+        const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
     /// The same sum added to `rhs` (n x 3) instead of replacing it.
     void accumulate(
         const Model& model, const Eigen::Ref<const MatX3>& positions, Eigen::Ref<MatX3> rhs);
@@ -75,9 +79,10 @@ private:
         int slots[4][projection_lanes]; ///< the corners' slots in the block's chunk
         int count = 0; ///< real tets in the block
     };
-    /// rhs = (base or rhs) + the sum; `base` null means rhs itself.
+    /// rhs = (base or rhs) + the sum; `base` null means rhs itself. `touched_only`: rhs = the sum
+    /// on the touched nodes' rows only.
     void run(const Model& model, const Eigen::Ref<const MatX3>& positions, const double* base,
-        Eigen::Ref<MatX3> rhs);
+        Eigen::Ref<MatX3> rhs, bool touched_only = false);
 
     Index m_num_tets = 0;
     bool m_exact = true;
@@ -86,6 +91,7 @@ private:
     std::vector<int> m_chunk_slots; ///< #chunks + 1: chunk c owns slots [s_c, s_c+1)
     std::vector<int> m_node_slot_offsets; ///< n + 1: node i's slots (CSR)
     std::vector<int> m_node_slots; ///< slots of each node, in chunk order
+    std::vector<int> m_touched; ///< nodes with at least one slot, ascending
     std::vector<double> m_slot_sums; ///< 3 per slot
     /// Per block: V of the last projection (the warm start).
     std::vector<RotationBlock> m_warm;
