@@ -87,7 +87,7 @@ HyperReducedSolver::HyperReducedSolver(
     if (samples < 0)
         throw_error("hyper-reduced: sample count {} must be non-negative", samples);
     if (samples == 0)
-        samples = std::max<Index>(2 * k, 64);
+        samples = std::max<Index>(4 * k, 256);
     m_samples = farthest_point_tets(model, samples);
     for (const int e : m_samples)
         for (int c = 0; c < 4; ++c)
