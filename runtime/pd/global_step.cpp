@@ -1,5 +1,7 @@
 #include "runtime/pd/global_step.hpp"
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -76,6 +78,39 @@ ReducedGlobalStep::ReducedGlobalStep(const Model& model)
     for (const int i : model.pinned_nodes())
         m_rest_system.row(i) += model.pin_weight() * model.rest_positions().row(i);
     m_q.setZero();
+    const Index k = model.num_columns();
+    if (k > 0 && k <= dense_inverse_limit)
+        m_inverse = model.reduced_system().solve(MatX::Identity(k, k));
+}
+
+void ReducedGlobalStep::solve_rows()
+{
+    if (m_inverse.size() == 0) {
+        m_q = m_q_rows; // columns: one right-hand side each
+        // The three right-hand sides are independent: one task each.
+        tbb::parallel_for(0, 3, [&](int c) {
+            auto column = m_q.col(c);
+            m_model.reduced_system().solveInPlace(column);
+        });
+        return;
+    }
+    m_q_columns = m_q_rows; // contiguous right-hand sides for the dot products
+    // Row blocks of a fixed size: each row is summed the same way for any thread count.
+    constexpr Index rows_per_block = 32;
+    const Index k = m_inverse.rows();
+    const Index blocks = (k + rows_per_block - 1) / rows_per_block;
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, blocks, 1), [&](const tbb::blocked_range<Index>& range) {
+            for (Index b = range.begin(); b != range.end(); ++b) {
+                const Index first = b * rows_per_block;
+                const Index count = std::min(rows_per_block, k - first);
+                for (Index i = first; i < first + count; ++i) {
+                    const auto row = m_inverse.row(i);
+                    for (int c = 0; c < 3; ++c)
+                        m_q(i, c) = row.dot(m_q_columns.col(c));
+                }
+            }
+        });
 }
 
 // Galerkin projection of A x = b onto x = X + B q (Lan et al. 2020, displacement form):
@@ -94,14 +129,9 @@ void ReducedGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
     Timer timer;
     MAT_CHECK(rhs.outerStride() == 3, "reduced global step: rhs must be contiguous rows");
     m_products.transpose_times(rhs.data(), m_q_rows.data());
-    m_q = m_q_rows; // columns: one right-hand side each
     timings.rhs += timer.seconds();
     timer.restart();
-    // The three right-hand sides are independent: one task each.
-    tbb::parallel_for(0, 3, [&](int c) {
-        auto column = m_q.col(c);
-        m_model.reduced_system().solveInPlace(column);
-    });
+    solve_rows();
     timings.solve += timer.seconds();
 }
 
@@ -111,11 +141,8 @@ void ReducedGlobalStep::solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverT
     MAT_CHECK(rhs.rows() == m_q.rows() && rhs.cols() == 3,
         "reduced global step: the reduced right-hand side is {} x {}, expected {} x 3", rhs.rows(),
         rhs.cols(), m_q.rows());
-    m_q = rhs;
-    tbb::parallel_for(0, 3, [&](int c) {
-        auto column = m_q.col(c);
-        m_model.reduced_system().solveInPlace(column);
-    });
+    m_q_rows = rhs;
+    solve_rows();
     timings.solve += timer.seconds();
 }
 

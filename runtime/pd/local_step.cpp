@@ -4,6 +4,10 @@
 #include <cmath>
 #include <cstdint>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <Eigen/LU> // Matrix3d::inverse
 #include <Eigen/SVD>
 #include <tbb/blocked_range.h>
@@ -19,6 +23,37 @@ namespace {
     /// a few threads; each chunk boundary duplicates the slots of the nodes it cuts).
     constexpr Index blocks_per_chunk = 48;
     constexpr Index max_chunks = 64;
+
+    /// p[c][k][l] = x[3 nodes[c][l] + k]: the corner positions of a block's tets, lanes
+    /// contiguous. With AVX-512, one 8-lane gather per corner, coordinate and half block:
+    /// scalar loads would be stored one lane at a time and then read back as vectors, which
+    /// stalls on store forwarding.
+    template <typename BlockT>
+    inline void gather_corners(
+        const BlockT& block, const double* x, double (&p)[4][3][projection_lanes])
+    {
+#if defined(__AVX512F__)
+        static_assert(projection_lanes % 8 == 0, "gathers of 8 lanes");
+        for (int c = 0; c < 4; ++c)
+            for (int h = 0; h < projection_lanes; h += 8) {
+                const __m256i node
+                    = _mm256_load_si256(reinterpret_cast<const __m256i*>(&block.nodes[c][h]));
+                const __m256i row = _mm256_add_epi32(_mm256_add_epi32(node, node), node);
+                _mm512_store_pd(&p[c][0][h], _mm512_i32gather_pd(row, x, 8));
+                _mm512_store_pd(&p[c][1][h], _mm512_i32gather_pd(row, x + 1, 8));
+                _mm512_store_pd(&p[c][2][h], _mm512_i32gather_pd(row, x + 2, 8));
+            }
+#else
+        for (int l = 0; l < projection_lanes; ++l)
+            for (int c = 0; c < 4; ++c) {
+                const double* xc = x + 3 * block.nodes[c][l];
+                p[c][0][l] = xc[0];
+                p[c][1][l] = xc[1];
+                p[c][2][l] = xc[2];
+            }
+#endif
+    }
+
 } // namespace
 
 Mat3 deformation_gradient(const Eigen::Ref<const MatX3>& positions,
@@ -254,16 +289,9 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
     // vol_e Dm^-1 target^T and corner 0 minus their sum.
     const auto run_block = [&](int b, MatBlock& f, MatBlock& target) {
         const Block& block = m_blocks[b];
-        // Gathered corner positions (scalar loads), then F in SIMD over lanes.
+        // Gathered corner positions, then F in SIMD over lanes.
         alignas(64) double p[4][3][lanes];
-        for (int l = 0; l < lanes; ++l)
-#pragma GCC unroll 4
-            for (int c = 0; c < 4; ++c) {
-                const double* xc = x + 3 * block.nodes[c][l];
-                p[c][0][l] = xc[0];
-                p[c][1][l] = xc[1];
-                p[c][2][l] = xc[2];
-            }
+        gather_corners(block, x, p);
         for (int l = 0; l < lanes; ++l)
 #pragma GCC unroll 3
             for (int r = 0; r < 3; ++r) {
@@ -283,14 +311,23 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
                         * (block.dm_inverse[3 * r][l] * target.m[3 * c][l]
                             + block.dm_inverse[3 * r + 1][l] * target.m[3 * c + 1][l]
                             + block.dm_inverse[3 * r + 2][l] * target.m[3 * c + 2][l]);
+        // Corner 0's share, minus the others' sum, in SIMD: the scatter then adds 12 values
+        // per tet, one chain per slot.
+        alignas(64) double corner0[3][lanes];
+        for (int l = 0; l < lanes; ++l)
+            for (int c = 0; c < 3; ++c)
+                corner0[c][l] = -(f.m[c][l] + f.m[3 + c][l] + f.m[6 + c][l]);
         for (int l = 0; l < block.count; ++l) {
             double* o0 = slot_sums + 3 * block.slots[0][l];
+            o0[0] += corner0[0][l];
+            o0[1] += corner0[1][l];
+            o0[2] += corner0[2][l];
+#pragma GCC unroll 3
             for (int r = 0; r < 3; ++r) {
                 double* o = slot_sums + 3 * block.slots[r + 1][l];
-                for (int c = 0; c < 3; ++c) {
-                    o[c] += f.m[3 * r + c][l];
-                    o0[c] -= f.m[3 * r + c][l];
-                }
+                o[0] += f.m[3 * r][l];
+                o[1] += f.m[3 * r + 1][l];
+                o[2] += f.m[3 * r + 2][l];
             }
         }
     };
