@@ -223,10 +223,56 @@ namespace {
     /// inside a lane loop would keep the compiler from vectorizing that loop).
     template <typename T> inline bool all_below(const T (&values)[W], T limit)
     {
-        bool all = true;
+        int failing = 0; // an integer sum: vectorized, where a chain of && is one compare per lane
         for (int l = 0; l < W; ++l)
-            all &= values[l] < limit;
-        return all;
+            failing += values[l] < limit ? 0 : 1; // NaN fails
+        return failing == 0;
+    }
+
+    /// out = sqrt(max(x, 0)) on every lane. With AVX-512: the 14-bit reciprocal square root
+    /// estimate, two Newton steps and one correction of the root (a few ulps; the hardware
+    /// square root costs several times as much per lane).
+    inline void sqrt_lanes(const DoubleLanes& x, DoubleLanes& out)
+    {
+#if defined(__AVX512F__)
+        const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5),
+                      three_halves = _mm512_set1_pd(1.5);
+        for (int l = 0; l < W; l += 8) {
+            const __m512d v = _mm512_max_pd(_mm512_load_pd(x + l), zero);
+            __m512d y = _mm512_rsqrt14_pd(v); // +inf at 0
+            const __m512d hv = _mm512_mul_pd(half, v);
+            for (int step = 0; step < 2; ++step) // y (3/2 - v y^2 / 2)
+                y = _mm512_mul_pd(y, _mm512_fnmadd_pd(hv, _mm512_mul_pd(y, y), three_halves));
+            __m512d r = _mm512_mul_pd(v, y);
+            r = _mm512_fmadd_pd(_mm512_mul_pd(half, y), _mm512_fnmadd_pd(r, r, v), r);
+            const __mmask8 positive = _mm512_cmp_pd_mask(v, zero, _CMP_GT_OQ);
+            _mm512_store_pd(out + l, _mm512_maskz_mov_pd(positive, r)); // 0 at 0
+        }
+#else
+        for (int l = 0; l < W; ++l)
+            out[l] = std::sqrt(std::max(x[l], 0.0));
+#endif
+    }
+
+    /// out = a / b on every lane. With AVX-512: the 14-bit reciprocal estimate, two Newton
+    /// steps and one correction of the quotient (a few ulps). A zero b gives NaN there instead
+    /// of an infinity: the callers treat both as not usable.
+    inline void divide_lanes(const DoubleLanes& a, const DoubleLanes& b, DoubleLanes& out)
+    {
+#if defined(__AVX512F__)
+        const __m512d one = _mm512_set1_pd(1.0);
+        for (int l = 0; l < W; l += 8) {
+            const __m512d n = _mm512_load_pd(a + l), d = _mm512_load_pd(b + l);
+            __m512d r = _mm512_rcp14_pd(d);
+            for (int step = 0; step < 2; ++step) // r + r (1 - d r)
+                r = _mm512_fmadd_pd(r, _mm512_fnmadd_pd(d, r, one), r);
+            const __m512d q = _mm512_mul_pd(n, r);
+            _mm512_store_pd(out + l, _mm512_fmadd_pd(r, _mm512_fnmadd_pd(d, q, n), q));
+        }
+#else
+        for (int l = 0; l < W; ++l)
+            out[l] = a[l] / b[l];
+#endif
     }
 
     /// True when every lane's symmetric A (upper triangle) is diagonal up to `tolerance`:
@@ -473,15 +519,35 @@ namespace {
     void volume_block(const DoubleLanes (&s)[3], const DoubleLanes& t, const DoubleLanes& cbrt_t,
         DoubleLanes (&out)[3])
     {
-        alignas(64) double x[W], lo[W], hi[W];
+        // Square roots and divisions in loops of their own, through sqrt_lanes and
+        // divide_lanes (about 2 Newton steps per block on the creature).
+        alignas(64) double x[W], lo[W], hi[W], r0[W], r1[W], a0[W], a1[W], num[W], den[W];
+        alignas(64) double inv0[W], inv1[W], inv2[W], ones[W];
+        // r_j = sqrt(s_j^2 + 4 mu), mu = x (x - s2), j = 0, 1: d_j = (s_j + r_j) / 2 at x.
+        const auto roots_at = [&](const DoubleLanes& at, DoubleLanes& root0, DoubleLanes& root1) {
+            for (int l = 0; l < W; ++l) {
+                const double mu = at[l] * (at[l] - s[2][l]);
+                a0[l] = s[0][l] * s[0][l] + 4.0 * mu;
+                a1[l] = s[1][l] * s[1][l] + 4.0 * mu;
+            }
+            sqrt_lanes(a0, root0);
+            sqrt_lanes(a1, root1);
+        };
+        for (int l = 0; l < W; ++l) {
+            x[l] = 0.5 * std::max(s[2][l], 0.0); // h, the branches' boundary
+            ones[l] = 1.0;
+        }
+        roots_at(x, r0, r1);
+        divide_lanes(ones, s[0], inv0);
+        divide_lanes(ones, s[1], inv1);
+        divide_lanes(ones, s[2], inv2);
         for (int l = 0; l < W; ++l) {
             const double s0 = s[0][l], s1 = s[1][l], s2 = s[2][l];
             const bool grow = s0 * s1 * s2 < t[l];
             const double s2p = std::max(s2, 0.0);
             const double h = 0.5 * s2p;
-            const double mu = h * (h - s2);
-            const double d0 = 0.5 * (s0 + std::sqrt(std::max(s0 * s0 + 4.0 * mu, 0.0)));
-            const double d1 = 0.5 * (s1 + std::sqrt(std::max(s1 * s1 + 4.0 * mu, 0.0)));
+            const double d0 = 0.5 * (s0 + r0[l]);
+            const double d1 = 0.5 * (s1 + r1[l]);
             const bool upper_branch = h * d0 * d1 <= t[l];
             lo[l] = grow ? s2p : (upper_branch ? h : 0.0);
             hi[l] = grow ? s2p + cbrt_t[l] : (upper_branch ? s2p : h);
@@ -489,48 +555,46 @@ namespace {
             // From S itself (mu = 0) when s2 > 0, moved by the first-order step d_i = s_i + mu /
             // s_i, mu = (t / det - 1) / sum 1 / s_i^2 (which leaves a residual of the square of
             // the violation), if that stays in the bracket.
-            const double inv0 = 1.0 / s0, inv1 = 1.0 / s1, inv2 = 1.0 / s2;
-            const double mu0
-                = (t[l] * inv0 * inv1 * inv2 - 1.0) / (inv0 * inv0 + inv1 * inv1 + inv2 * inv2);
-            const double first = s2 + mu0 * inv2;
+            const double i0 = inv0[l], i1 = inv1[l], i2 = inv2[l];
+            const double mu0 = (t[l] * i0 * i1 * i2 - 1.0) / (i0 * i0 + i1 * i1 + i2 * i2);
+            const double first = s2 + mu0 * i2;
             const bool inside = s2 > 0.0 && first >= lo[l] && first <= hi[l];
             x[l] = inside ? first : (s2 > 0.0 ? s2 : start);
         }
         for (int iteration = 0; iteration < volume_newton_steps; ++iteration) {
+            roots_at(x, r0, r1);
             alignas(64) double residual[W]; // |P(x) - t| / t before this step
             for (int l = 0; l < W; ++l) {
                 const double s0 = s[0][l], s1 = s[1][l], s2 = s[2][l], xl = x[l];
-                const double mu = xl * (xl - s2);
-                const double r0 = std::sqrt(std::max(s0 * s0 + 4.0 * mu, 0.0));
-                const double r1 = std::sqrt(std::max(s1 * s1 + 4.0 * mu, 0.0));
-                const double d0 = 0.5 * (s0 + r0), d1 = 0.5 * (s1 + r1);
+                const double d0 = 0.5 * (s0 + r0[l]), d1 = 0.5 * (s1 + r1[l]);
                 const double g = xl * d0 * d1 - t[l];
-                residual[l] = std::abs(g) / t[l];
+                residual[l] = std::abs(g) - volume_tolerance_before_last_step * t[l];
                 const double lo_l = g < 0.0 ? xl : lo[l];
                 const double hi_l = g < 0.0 ? hi[l] : xl;
                 lo[l] = lo_l;
                 hi[l] = hi_l;
                 // P'(x) = d0 d1 + x (2x - s2) (d1 / r0 + d0 / r1), multiplied through by r0 r1.
                 const double e = 2.0 * xl - s2;
-                const double num = g * r0 * r1;
-                const double den = d0 * d1 * r0 * r1 + xl * e * (d1 * r1 + d0 * r0);
-                const double next = xl - num / den;
-                const double clamped = std::min(std::max(next, lo_l), hi_l);
-                x[l] = clamped == next ? next : 0.5 * (lo_l + hi_l);
+                num[l] = g * r0[l] * r1[l];
+                den[l] = d0 * d1 * r0[l] * r1[l] + xl * e * (d1 * r1[l] + d0 * r0[l]);
+            }
+            divide_lanes(num, den, a0); // the Newton step
+            for (int l = 0; l < W; ++l) {
+                const double next = x[l] - a0[l];
+                const double clamped = std::min(std::max(next, lo[l]), hi[l]);
+                x[l] = clamped == next ? next : 0.5 * (lo[l] + hi[l]);
             }
             // Quadratic convergence: a residual of 1e-8 before a Newton step leaves ~1e-16.
-            if (all_below(residual, volume_tolerance_before_last_step))
+            if (all_below(residual, 0.0))
                 break;
         }
+        roots_at(x, r0, r1);
         for (int l = 0; l < W; ++l) {
-            const double s0 = s[0][l], s1 = s[1][l], s2 = s[2][l], xl = x[l];
-            const double mu = xl * (xl - s2);
-            const double d0 = 0.5 * (s0 + std::sqrt(std::max(s0 * s0 + 4.0 * mu, 0.0)));
-            const double d1 = 0.5 * (s1 + std::sqrt(std::max(s1 * s1 + 4.0 * mu, 0.0)));
-            out[0][l] = d0;
-            out[1][l] = d1;
-            out[2][l] = t[l] / (d0 * d1);
+            out[0][l] = 0.5 * (s[0][l] + r0[l]);
+            out[1][l] = 0.5 * (s[1][l] + r1[l]);
+            den[l] = out[0][l] * out[1][l];
         }
+        divide_lanes(t, den, out[2]);
     }
 
 } // namespace
