@@ -29,7 +29,8 @@ public:
     /// out = B^T y: `y`  n x 3 row-major (3 n doubles), `out`  k x 3 row-major (3 k doubles).
     void transpose_times(const double* y, double* out) const;
     /// x = X + B q: `q`  k x 3 row-major, `x`  n x 3 row-major.
-    void reconstruct(const double* q, double* x) const;
+    /// Not for concurrent calls on one object (it keeps a workspace).
+    void reconstruct(const double* q, double* x);
 
 private:
     const Model& m_model;
@@ -37,6 +38,7 @@ private:
     // Handle form.
     struct Handle {
         double center[3];
+        double shift[3]; ///< center minus the rest centroid
         double inverse_scale;
         int offset; ///< first basis column
         int terms; ///< 4 or 10
@@ -48,6 +50,15 @@ private:
     std::vector<int> m_handle_offsets; ///< m + 1: handle j's (node, weight) entries
     std::vector<int> m_handle_nodes;
     std::vector<double> m_handle_weights;
+    // The reconstruction's data: d_i = X_i - (rest centroid), n x 3; whether node i has weight
+    // from a quadratic handle; per handle its polynomial's coefficients in the monomials of d,
+    // refilled by each call (the affine 12 padded to 16 and aligned, then the quadratic 18).
+    static constexpr int affine_stride = 16;
+    static constexpr int quadratic_stride = 18;
+    std::vector<double> m_rest_offsets;
+    std::vector<char> m_node_quadratic;
+    std::vector<double, Eigen::aligned_allocator<double>> m_affine_terms;
+    std::vector<double> m_quadratic_terms;
 };
 
 } // namespace mat

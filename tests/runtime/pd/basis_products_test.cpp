@@ -14,7 +14,7 @@ namespace mat {
 namespace {
 
     /// Both products against Eigen's on random y and q, and the same bits on 1 and 2 threads.
-    void expect_products_match(const Model& model, const BasisProducts& products)
+    void expect_products_match(const Model& model, BasisProducts& products)
     {
         const Index n = model.num_nodes(), k = model.num_columns();
         std::mt19937 rng(3);
@@ -47,7 +47,7 @@ namespace {
             SCOPED_TRACE(quadratic);
             const BakeData bake = test::bake_cube("", quadratic);
             const Model model(bake, Material {}, ModelOptions {});
-            const BasisProducts products(model);
+            BasisProducts products(model);
             EXPECT_TRUE(products.factored());
             expect_products_match(model, products);
         }
@@ -59,14 +59,14 @@ namespace {
         BakeData bake = test::shipped_cube_bake();
         bake.basis.valuePtr()[bake.basis.nonZeros() / 2] *= 1.0 + 1e-6;
         const Model model(bake, Material {}, ModelOptions {});
-        const BasisProducts products(model);
+        BasisProducts products(model);
         EXPECT_FALSE(products.factored());
         expect_products_match(model, products);
 
         // The identity basis of the complete-basis tests has no handles at all.
         test::GridTetOptions grid;
         const Model identity(test::make_identity_bake(grid), Material {}, ModelOptions {});
-        const BasisProducts plain(identity);
+        BasisProducts plain(identity);
         EXPECT_FALSE(plain.factored());
         expect_products_match(identity, plain);
     }
