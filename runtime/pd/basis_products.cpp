@@ -69,6 +69,32 @@ namespace {
 #endif
     }
 
+    /// rows[Stride handles[e] + 0 .. 12) += weights[e] terms[0 .. 12) for each entry e; rows
+    /// and terms 64-byte aligned with Stride 16: one 8-wide and one 4-wide multiply-add each.
+    template <int Stride>
+    inline void add_to_rows(
+        const double* terms, const int* handles, const double* weights, int count, double* rows)
+    {
+        static_assert(Stride == 16, "rows of 12 values padded to 16");
+#if defined(__AVX512F__)
+        const __m512d t0 = _mm512_load_pd(terms);
+        const __m256d t1 = _mm256_load_pd(terms + 8);
+        for (int e = 0; e < count; ++e) {
+            double* row = rows + Stride * handles[e];
+            const __m512d w8 = _mm512_set1_pd(weights[e]);
+            _mm512_store_pd(row, _mm512_fmadd_pd(w8, t0, _mm512_load_pd(row)));
+            _mm256_store_pd(
+                row + 8, _mm256_fmadd_pd(_mm512_castpd512_pd256(w8), t1, _mm256_load_pd(row + 8)));
+        }
+#else
+        for (int e = 0; e < count; ++e) {
+            double* row = rows + Stride * handles[e];
+            for (int v = 0; v < 12; ++v)
+                row[v] += weights[e] * terms[v];
+        }
+#endif
+    }
+
     constexpr int lanes = 8;
 
     /// out rows off_j .. off_j + Terms - 1 = sum over entries [begin, end) of w p_t(y) y_i.
@@ -211,11 +237,17 @@ BasisProducts::BasisProducts(const Model& model)
             if (m_handles[m_node_handles[e]].terms == quadratic_terms)
                 m_node_quadratic[i] = 1;
     m_affine_terms.assign(affine_stride * m, 0.0);
+    m_any_quadratic = std::any_of(m_handles.begin(), m_handles.end(),
+        [](const Handle& h) { return h.terms == quadratic_terms; });
+    m_chunk_rows.assign(static_cast<std::size_t>(transpose_chunks) * affine_stride * m, 0.0);
+    m_chunk_quadratic_rows.assign(
+        m_any_quadratic ? static_cast<std::size_t>(transpose_chunks) * quadratic_stride * m : 0,
+        0.0);
     m_quadratic_terms.assign(quadratic_stride * m, 0.0);
     m_factored = true;
 }
 
-void BasisProducts::transpose_times(const double* y, double* out) const
+void BasisProducts::transpose_times(const double* y, double* out)
 {
     if (!m_factored) {
         const SparseRowMatrix& bt = m_model.basis_transpose();
@@ -240,21 +272,87 @@ void BasisProducts::transpose_times(const double* y, double* out) const
             });
         return;
     }
-    // Column off_j + t of B^T y = sum_i w_ij p_t(y_ij) y_i: one pass over handle j's nodes,
-    // eight at a time in lane sums (a fixed order, so vectorized and deterministic).
-    const double* rest = m_model.rest_positions().data();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, static_cast<Index>(m_handles.size()), 4),
-        [&](const tbb::blocked_range<Index>& r) {
-            for (Index j = r.begin(); j != r.end(); ++j) {
-                const Handle& h = m_handles[j];
-                if (h.terms == quadratic_terms)
-                    handle_sums<quadratic_terms>(h, m_handle_offsets[j], m_handle_offsets[j + 1],
-                        m_handle_nodes.data(), m_handle_weights.data(), rest, y, out);
-                else
-                    handle_sums<linear_terms>(h, m_handle_offsets[j], m_handle_offsets[j + 1],
-                        m_handle_nodes.data(), m_handle_weights.data(), rest, y, out);
+    // Column off_j + t of B^T y = sum_i w_ij p_t((d_i - delta_j) sigma_j) y_i (d_i = X_i - o,
+    // delta_j = c_j - o, o the rest centroid): expanded in the monomials of d, handle j needs
+    // S_j = sum_i w_ij [y_i, d_i (x) y_i] (12 values; 18 more, d_a d_b y_i, for a quadratic
+    // handle). Node by node: each node's 12 values are formed once, in registers, and added
+    // into the rows of its handles (in L1). The nodes are split into a fixed number of chunks,
+    // each with rows of its own, summed in chunk order: the same bits for any thread count.
+    const Index m = static_cast<Index>(m_handles.size());
+    const Index n = m_model.num_nodes();
+    const double* d = m_rest_offsets.data();
+    const int chunks = transpose_chunks;
+    tbb::parallel_for(tbb::blocked_range<int>(0, chunks, 1), [&](const tbb::blocked_range<int>& r) {
+        for (int c = r.begin(); c != r.end(); ++c) {
+            double* rows = m_chunk_rows.data() + static_cast<std::size_t>(c) * affine_stride * m;
+            double* rows2 = m_chunk_quadratic_rows.data()
+                + static_cast<std::size_t>(c) * quadratic_stride * m;
+            std::fill(rows, rows + affine_stride * m, 0.0);
+            if (m_any_quadratic)
+                std::fill(rows2, rows2 + quadratic_stride * m, 0.0);
+            const Index first = c * n / chunks, last = (c + 1) * n / chunks;
+            for (Index i = first; i < last; ++i) {
+                const double* yi = y + 3 * i;
+                const double* di = d + 3 * i;
+                alignas(64) double terms[affine_stride] = { yi[0], yi[1], yi[2], di[0] * yi[0],
+                    di[0] * yi[1], di[0] * yi[2], di[1] * yi[0], di[1] * yi[1], di[1] * yi[2],
+                    di[2] * yi[0], di[2] * yi[1], di[2] * yi[2], 0.0, 0.0, 0.0, 0.0 };
+                const int begin = m_node_offsets[i], end = m_node_offsets[i + 1];
+                add_to_rows<affine_stride>(terms, m_node_handles.data() + begin,
+                    m_node_weights.data() + begin, end - begin, rows);
+                if (!m_node_quadratic[i])
+                    continue;
+                double terms2[quadratic_stride];
+                for (int k = 0; k < 6; ++k)
+                    for (int t = 0; t < 3; ++t)
+                        terms2[3 * k + t] = di[pair_a[k]] * di[pair_b[k]] * yi[t];
+                for (int e = begin; e < end; ++e) {
+                    const int j = m_node_handles[e];
+                    if (m_handles[j].terms != quadratic_terms)
+                        continue;
+                    double* row = rows2 + quadratic_stride * j;
+                    for (int v = 0; v < quadratic_stride; ++v)
+                        row[v] += m_node_weights[e] * terms2[v];
+                }
             }
-        });
+        }
+    });
+    tbb::parallel_for(tbb::blocked_range<Index>(0, m, 16), [&](const tbb::blocked_range<Index>& r) {
+        for (Index j = r.begin(); j != r.end(); ++j) {
+            const Handle& h = m_handles[j];
+            double sums[affine_stride] = {}, sums2[quadratic_stride] = {};
+            for (int c = 0; c < chunks; ++c) {
+                const double* row
+                    = m_chunk_rows.data() + (static_cast<std::size_t>(c) * m + j) * affine_stride;
+                for (int v = 0; v < 12; ++v)
+                    sums[v] += row[v];
+                if (h.terms != quadratic_terms)
+                    continue;
+                const double* row2 = m_chunk_quadratic_rows.data()
+                    + (static_cast<std::size_t>(c) * m + j) * quadratic_stride;
+                for (int v = 0; v < quadratic_stride; ++v)
+                    sums2[v] += row2[v];
+            }
+            // Back to the handle's monomials of (d - delta) sigma.
+            const double sigma = h.inverse_scale;
+            const double* delta = h.shift;
+            double* o = out + 3 * h.offset;
+            for (int t = 0; t < 3; ++t) {
+                const double s0 = sums[t];
+                o[t] = s0;
+                for (int a = 0; a < 3; ++a)
+                    o[3 * (1 + a) + t] = sigma * (sums[3 + 3 * a + t] - delta[a] * s0);
+                if (h.terms != quadratic_terms)
+                    continue;
+                for (int k = 0; k < 6; ++k) {
+                    const int a = pair_a[k], b = pair_b[k];
+                    o[3 * (4 + k) + t] = sigma * sigma
+                        * (sums2[3 * k + t] - delta[a] * sums[3 + 3 * b + t]
+                            - delta[b] * sums[3 + 3 * a + t] + delta[a] * delta[b] * s0);
+                }
+            }
+        }
+    });
 }
 
 void BasisProducts::reconstruct(const double* q, double* x)

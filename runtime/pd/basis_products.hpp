@@ -27,7 +27,8 @@ public:
     bool factored() const { return m_factored; }
 
     /// out = B^T y: `y`  n x 3 row-major (3 n doubles), `out`  k x 3 row-major (3 k doubles).
-    void transpose_times(const double* y, double* out) const;
+    /// Not for concurrent calls on one object (it keeps a workspace).
+    void transpose_times(const double* y, double* out);
     /// x = X + B q: `q`  k x 3 row-major, `x`  n x 3 row-major.
     /// Not for concurrent calls on one object (it keeps a workspace).
     void reconstruct(const double* q, double* x);
@@ -59,6 +60,12 @@ private:
     std::vector<char> m_node_quadratic;
     std::vector<double, Eigen::aligned_allocator<double>> m_affine_terms;
     std::vector<double> m_quadratic_terms;
+    // B^T y's workspace: per chunk of nodes, per handle, its sums (as m_affine_terms and
+    // m_quadratic_terms). A fixed number of chunks: the parallel unit, whatever the threads.
+    static constexpr int transpose_chunks = 16;
+    bool m_any_quadratic = false;
+    std::vector<double, Eigen::aligned_allocator<double>> m_chunk_rows;
+    std::vector<double> m_chunk_quadratic_rows;
 };
 
 } // namespace mat

@@ -91,7 +91,7 @@ public:
     /// Replaces the kept solution by `q`  k x 3.
     void set_reduced_coordinates(const Eigen::Ref<const MatX>& q);
     /// The basis products the step uses (B^T y, X + B q).
-    const BasisProducts& products() const { return m_products; }
+    BasisProducts& products() { return m_products; }
     /// q  k x 3 of the kept solution.
     const MatX& reduced_coordinates() const { return m_q; }
 
