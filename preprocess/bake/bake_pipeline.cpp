@@ -243,62 +243,84 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
         report.medial_max_outside_distance = medial.max_outside_distance;
     });
 
-    // 4. Harmonic weights.
+    // 4-6. Harmonic weights, handle basis, PD operators. When the basis comes out rank-deficient
+    // (many spheres: a handle whose small region is hemmed in by its neighbours' keeps its
+    // weight on a node or two), once more with every such region widened to a tet (step
+    // 4 of handle_regions.hpp). Bakes whose basis is fine are not changed.
     Eigen::SparseMatrix<double> laplacian;
     TetRestData rest;
-    stage(report, "harmonic weights", [&] {
-        rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
-        laplacian = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
-        const VecXi regions = assign_handle_regions(bake.tet_mesh.positions, input_medial.centers,
-            input_medial.radii, options.region_alpha);
-        HarmonicWeightOptions weight_options;
-        weight_options.max_handles_per_node = options.weights_per_node;
-        HarmonicWeights weights = compute_harmonic_weights(
-            laplacian, regions, input_medial.num_spheres(), weight_options);
-        bake.weights = std::move(weights.weights);
-        report.weight_partition_error = weights.diagnostics.max_partition_error;
-        report.weight_min = weights.diagnostics.min_weight;
-        report.weight_max = weights.diagnostics.max_weight;
-        report.weight_sparsify_change = weights.diagnostics.max_sparsify_change;
-    });
-
-    // 5. Handle basis.
     HandleBasis basis;
-    stage(report, "handle basis", [&] {
-        const VecX scales
-            = handle_support_scales(bake.tet_mesh.positions, bake.weights, input_medial.centers);
-        basis = build_handle_basis(
-            bake.tet_mesh.positions, bake.weights, input_medial.centers, scales, quadratic);
-        report.linear_precision_error = linear_precision_error(basis, bake.tet_mesh.positions);
-        report.quadratic_precision_error
-            = quadratic_precision_error(basis, bake.weights, bake.tet_mesh.positions);
-        if (!(report.linear_precision_error < 1e-9))
-            throw_error("internal: the basis does not reproduce affine fields (error {:.3g})",
-                report.linear_precision_error);
-        bake.handle_centers = basis.centers;
-        bake.handle_scales = basis.scales;
-        bake.handle_quadratic = basis.quadratic.cast<int>();
-        bake.handle_column_offsets = basis.handle_offset;
-        bake.basis = basis.basis;
-    });
-    report.handles = basis.num_handles();
-    report.quadratic_handles = quadratic.count();
-    report.columns = basis.num_columns();
+    const auto weights_basis_operators = [&](bool widen) {
+        stage(report, "harmonic weights", [&] {
+            rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
+            laplacian = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
+            WholeTetRegions regions;
+            regions.owner = assign_handle_regions(bake.tet_mesh.positions, input_medial.centers,
+                input_medial.radii, options.region_alpha);
+            if (widen) {
+                regions = give_every_region_a_tet(regions.owner, bake.tet_mesh.positions,
+                    bake.tet_mesh.tets, input_medial.centers);
+                logger().info("handle regions: {} of {} handles had a region that does not span "
+                              "3D and were given the nearest free tet",
+                    regions.handles_given_tets, input_medial.num_spheres());
+            }
+            report.handles_given_tets = regions.handles_given_tets;
+            HarmonicWeightOptions weight_options;
+            weight_options.max_handles_per_node = options.weights_per_node;
+            HarmonicWeights weights = compute_harmonic_weights(
+                laplacian, regions.owner, input_medial.num_spheres(), weight_options);
+            bake.weights = std::move(weights.weights);
+            report.weight_partition_error = weights.diagnostics.max_partition_error;
+            report.weight_min = weights.diagnostics.min_weight;
+            report.weight_max = weights.diagnostics.max_weight;
+            report.weight_sparsify_change = weights.diagnostics.max_sparsify_change;
+        });
+        // 5. Handle basis.
+        stage(report, "handle basis", [&] {
+            const VecX scales = handle_support_scales(
+                bake.tet_mesh.positions, bake.weights, input_medial.centers);
+            basis = build_handle_basis(
+                bake.tet_mesh.positions, bake.weights, input_medial.centers, scales, quadratic);
+            report.linear_precision_error = linear_precision_error(basis, bake.tet_mesh.positions);
+            report.quadratic_precision_error
+                = quadratic_precision_error(basis, bake.weights, bake.tet_mesh.positions);
+            if (!(report.linear_precision_error < 1e-9))
+                throw_error("internal: the basis does not reproduce affine fields (error {:.3g})",
+                    report.linear_precision_error);
+            bake.handle_centers = basis.centers;
+            bake.handle_scales = basis.scales;
+            bake.handle_quadratic = basis.quadratic.cast<int>();
+            bake.handle_column_offsets = basis.handle_offset;
+            bake.basis = basis.basis;
+        });
+        report.handles = basis.num_handles();
+        report.quadratic_handles = quadratic.count();
+        report.columns = basis.num_columns();
 
-    // 6. PD operators.
-    stage(report, "pd operators", [&] {
-        bake.dm_inverse = rest.dm_inverse;
-        bake.rest_volumes = rest.volumes;
-        bake.lumped_mass
-            = lumped_masses(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest.volumes);
-        bake.laplacian = laplacian;
-        const ReducedOperators reduced = reduce_operators(bake.basis, laplacian, bake.lumped_mass);
-        // A representative system (E ~ 1e5 Pa, 1000 kg/m^3, dt = 1/30 s) must be SPD.
-        const ReducedSystemCheck check = check_reduced_system(reduced, 1e5, 1000.0, 1.0 / 30.0);
-        report.reduced_reciprocal_condition = check.reciprocal_condition;
-        bake.reduced_laplacian = reduced.laplacian;
-        bake.reduced_mass = reduced.mass;
-    });
+        // 6. PD operators.
+        stage(report, "pd operators", [&] {
+            bake.dm_inverse = rest.dm_inverse;
+            bake.rest_volumes = rest.volumes;
+            bake.lumped_mass
+                = lumped_masses(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest.volumes);
+            bake.laplacian = laplacian;
+            const ReducedOperators reduced
+                = reduce_operators(bake.basis, laplacian, bake.lumped_mass);
+            // A representative system (E ~ 1e5 Pa, 1000 kg/m^3, dt = 1/30 s) must be SPD.
+            const ReducedSystemCheck check = check_reduced_system(reduced, 1e5, 1000.0, 1.0 / 30.0);
+            report.reduced_reciprocal_condition = check.reciprocal_condition;
+            bake.reduced_laplacian = reduced.laplacian;
+            bake.reduced_mass = reduced.mass;
+        });
+    };
+    try {
+        weights_basis_operators(false);
+    } catch (const Error& error) {
+        if (std::string(error.what()).find("rank-deficient") == std::string::npos)
+            throw;
+        logger().info("{}: widening the regions that do not span 3D, then again", error.what());
+        weights_basis_operators(true);
+    }
 
     // 7. Collision-bound data.
     stage(report, "collision data", [&] {
@@ -341,8 +363,9 @@ std::string BakeReport::summary() const
     out += fmt::format("embedding: {} surface vertices and {} sphere centers outside every tet "
                        "(nearest tet used; farthest center {:.3g} away)\n",
         surface_outside_tets, medial_outside_tets, medial_max_outside_distance);
-    out += fmt::format("handles: {} ({} quadratic), {} basis columns, {} reduced DOF\n", handles,
-        quadratic_handles, columns, 3 * columns);
+    out += fmt::format("handles: {} ({} quadratic), {} basis columns, {} reduced DOF; {} regions "
+                       "widened to a tet\n",
+        handles, quadratic_handles, columns, 3 * columns, handles_given_tets);
     out += fmt::format("weights: partition of unity error {:.2g}, raw range [{:.3g}, {:.3g}], "
                        "largest change from sparsification {:.3g}\n",
         weight_partition_error, weight_min, weight_max, weight_sparsify_change);

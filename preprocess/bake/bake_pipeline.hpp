@@ -44,6 +44,9 @@ struct BakeReport {
     Index medial_outside_tets = 0; ///< sphere centers embedded in their nearest tet
     double medial_max_outside_distance = 0.0;
     Index handles = 0, quadratic_handles = 0, columns = 0;
+    /// Handles whose region was widened to a tet (handle_regions.hpp step 4, run only when the
+    /// basis came out rank-deficient).
+    Index handles_given_tets = 0;
     double weight_partition_error = 0.0, weight_min = 0.0, weight_max = 0.0;
     double weight_sparsify_change = 0.0;
     double linear_precision_error = 0.0; ///< relative, over random affine fields

@@ -14,6 +14,7 @@
 
 #include "common/error.hpp"
 #include "formats/bake_io.hpp"
+#include "formats/medial_io.hpp"
 #include "preprocess/bake/bake_pipeline.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "preprocess/weights/handle_regions.hpp"
@@ -233,6 +234,48 @@ namespace {
         EXPECT_THROW(parse_quadratic("0,x", 3), Error);
         EXPECT_THROW(parse_quadratic("3", 3), Error);
         EXPECT_THROW(parse_quadratic("-1", 3), Error);
+    }
+
+    TEST(Bake, SmallSpheresInsideABigOneKeepTheBasisFullRank)
+    {
+        // Two tiny spheres beside the cube's middle sphere (the near-duplicates of a >1000-sphere
+        // generated medial mesh). Their balls hold no node, so each gets one node inside the
+        // middle sphere's region, hemmed in by it: weight on that node alone, 3 of its 4 columns
+        // dependent, and the bake used to stop with "not positive definite". Now it bakes again
+        // with those two regions widened to a whole tet.
+        MedialMesh medial = read_medial(data_dir + "cube.ma");
+        medial.centers.conservativeResize(5, 3);
+        medial.radii.conservativeResize(5);
+        medial.centers.row(3) << 0.51, 0.5, 0.5;
+        medial.centers.row(4) << 0.49, 0.51, 0.5;
+        medial.radii.tail(2).setConstant(0.01);
+        const std::string path = testing::TempDir() + "bake_test_small_spheres.ma";
+        write_medial(path, medial);
+        BakeOptions options = cube_options();
+        options.medial = path;
+        options.tet_size = 0.03;
+        BakeReport report;
+        const BakeData bake = run_bake(options, report);
+        std::remove(path.c_str());
+        EXPECT_EQ(report.handles_given_tets, 2);
+        EXPECT_EQ(bake.num_columns(), 20);
+        EXPECT_GT(report.reduced_reciprocal_condition, 1e-10);
+        // Every handle is exactly 1 on the 4 nodes of a whole tet.
+        const VecXi regions = give_every_region_a_tet(
+            assign_handle_regions(bake.tet_mesh.positions, bake.handle_centers,
+                bake.medial_input_radii, options.region_alpha),
+            bake.tet_mesh.positions, bake.tet_mesh.tets, bake.handle_centers)
+                                  .owner;
+        for (Index j = 0; j < 5; ++j) {
+            bool whole = false;
+            for (Index t = 0; t < bake.tet_mesh.num_tets() && !whole; ++t)
+                whole = (bake.tet_mesh.tets.row(t)
+                             .unaryExpr([&](int i) { return regions(i); })
+                             .array()
+                    == j)
+                            .all();
+            EXPECT_TRUE(whole) << "handle " << j;
+        }
     }
 
     TEST(Bake, RejectsBadOptions)

@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include <Eigen/LU>
 #include <Eigen/SparseCholesky>
 
 #include "common/error.hpp"
@@ -75,6 +76,80 @@ namespace {
         EXPECT_THROW(assign_handle_regions(nodes, centers, VecX::Constant(4, -1.0), 0.5), Error);
         EXPECT_THROW(assign_handle_regions(nodes, centers, radii, 0.0), Error);
         EXPECT_THROW(assign_handle_regions(nodes.topRows(3), centers, radii, 0.5), Error);
+    }
+
+    TEST(HandleRegions, EveryRegionGetsAWholeTet)
+    {
+        // 4 x 4 x 4 cells of 0.25; handle 0's ball covers the box, handles 1 and 2 sit beside a
+        // node inside it with balls that hold no node: steps 1-3 leave them one node each, every
+        // neighbour owned by handle 0.
+        test::GridTetOptions grid;
+        const TetMesh mesh = test::make_grid_tets(grid);
+        MatX3 centers(3, 3);
+        centers << 0.5, 0.5, 0.5, 0.51, 0.5, 0.5, 0.49, 0.51, 0.5;
+        VecX radii(3);
+        radii << 2.0, 0.01, 0.01;
+        const VecXi steps_1_3 = assign_handle_regions(mesh.positions, centers, radii, 0.5);
+        EXPECT_EQ((steps_1_3.array() == 1).count(), 1);
+        EXPECT_EQ((steps_1_3.array() == 2).count(), 1);
+        const WholeTetRegions regions
+            = give_every_region_a_tet(steps_1_3, mesh.positions, mesh.tets, centers);
+        EXPECT_EQ(regions.handles_given_tets, 2);
+        std::vector<Index> whole_tets(3, 0);
+        for (Index t = 0; t < mesh.num_tets(); ++t) {
+            const int j = regions.owner(mesh.tets(t, 0));
+            if (j >= 0
+                && (mesh.tets.row(t).unaryExpr([&](int i) { return regions.owner(i); }).array()
+                    == j)
+                       .all())
+                ++whole_tets[static_cast<size_t>(j)];
+        }
+        for (Index j = 0; j < 3; ++j)
+            EXPECT_GE(whole_tets[static_cast<size_t>(j)], 1) << "handle " << j;
+        // Handles that own a whole tet are left alone.
+        EXPECT_EQ(give_every_region_a_tet(regions.owner, mesh.positions, mesh.tets, centers).owner,
+            regions.owner);
+
+        // One node per handle at every node: no tet can be given to all of them.
+        test::GridTetOptions tiny;
+        tiny.nx = tiny.ny = tiny.nz = 1;
+        const TetMesh cube = test::make_grid_tets(tiny);
+        test::expect_error_containing(
+            [&] {
+                give_every_region_a_tet(assign_handle_regions(cube.positions, cube.positions,
+                                            VecX::Constant(8, 0.1), 0.5),
+                    cube.positions, cube.tets, cube.positions);
+            },
+            { "no tet is left for handle 1", "--tet-size" });
+    }
+
+    TEST(HarmonicWeights, EveryHandleKeepsAnAffineFrameOnItsSupport)
+    {
+        // Without step 4 the hemmed-in handles' weights live on one node each: their columns
+        // w [1, y] span 1 dimension instead of 4. With it, 4 each.
+        test::GridTetOptions grid;
+        const TetMesh mesh = test::make_grid_tets(grid);
+        const Eigen::SparseMatrix<double> laplacian = assemble_laplacian(
+            mesh.num_vertices(), mesh.tets, compute_tet_rest_data(mesh.positions, mesh.tets));
+        MatX3 centers(3, 3);
+        centers << 0.5, 0.5, 0.5, 0.51, 0.5, 0.5, 0.49, 0.51, 0.5;
+        VecX radii(3);
+        radii << 2.0, 0.01, 0.01;
+        const VecXi steps_1_3 = assign_handle_regions(mesh.positions, centers, radii, 0.5);
+        const auto affine_rank = [&](const VecXi& owner, Index j) {
+            const MatX w = MatX(compute_harmonic_weights(laplacian, owner, 3).weights);
+            MatX columns(w.rows(), 4);
+            for (Index i = 0; i < w.rows(); ++i) {
+                columns(i, 0) = w(i, j);
+                columns.block<1, 3>(i, 1) = w(i, j) * (mesh.positions.row(i) - centers.row(j));
+            }
+            return Eigen::FullPivLU<MatX>(columns).setThreshold(1e-10).rank();
+        };
+        EXPECT_EQ(affine_rank(steps_1_3, 1), 1);
+        const VecXi owner
+            = give_every_region_a_tet(steps_1_3, mesh.positions, mesh.tets, centers).owner;
+        for (Index j = 0; j < 3; ++j)
+            EXPECT_EQ(affine_rank(owner, j), 4) << "handle " << j;
     }
 
     TEST(HarmonicWeights, UnsparsifiedWeightsSolveTheConstrainedLaplace)
