@@ -168,8 +168,13 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
         table *= 2;
     m_mask = table - 1;
 
-    // Each item's distinct buckets (two of its cells may share one), then a CSR by bucket with
-    // the items in increasing order.
+    // Each item's distinct buckets (two of its cells may share one), each with the item's start
+    // mask there (bit k: a cell of the item in this bucket is its first along axis k; OR-ed
+    // over its cells in the bucket), then a CSR by (bucket, mask) with the items in increasing
+    // order. A pair is reported from the cell c holding the low corner of the two boxes'
+    // intersection, so along every axis where c is past the scanning item's first cell, the
+    // other item must start at c: the groups without those bits need no scan.
+    m_table = table;
     m_scratch.clear();
     m_item_offsets.assign(n + 1, 0);
     for (std::size_t i = 0; i < n; ++i) {
@@ -178,20 +183,31 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
             const Slot& r = m_slots[i];
             for (std::int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
                 for (std::int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
-                    for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x)
-                        m_scratch.push_back(bucket(x, y, z));
+                    for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x) {
+                        const std::size_t mask = (x == r.lo[0] ? 1u : 0u) | (y == r.lo[1] ? 2u : 0u)
+                            | (z == r.lo[2] ? 4u : 0u);
+                        m_scratch.push_back(bucket(x, y, z) * start_groups + mask);
+                    }
             std::sort(m_scratch.begin() + static_cast<std::ptrdiff_t>(begin), m_scratch.end());
-            m_scratch.erase(std::unique(m_scratch.begin() + static_cast<std::ptrdiff_t>(begin),
-                                m_scratch.end()),
-                m_scratch.end());
+            // One key per bucket, masks OR-ed.
+            std::size_t kept = begin;
+            for (std::size_t e = begin; e < m_scratch.size(); ++e) {
+                if (kept > begin
+                    && m_scratch[kept - 1] / start_groups == m_scratch[e] / start_groups)
+                    m_scratch[kept - 1] |= m_scratch[e] % start_groups;
+                else
+                    m_scratch[kept++] = m_scratch[e];
+            }
+            m_scratch.resize(kept);
         }
         m_item_offsets[i + 1] = m_scratch.size();
     }
-    m_bucket_start.assign(table + 1, 0);
-    for (const std::size_t b : m_scratch)
-        ++m_bucket_start[b + 1];
-    for (std::size_t b = 0; b < table; ++b)
-        m_bucket_start[b + 1] += m_bucket_start[b];
+    const std::size_t keys = table * start_groups;
+    m_bucket_start.assign(keys + 1, 0);
+    for (const std::size_t key : m_scratch)
+        ++m_bucket_start[key + 1];
+    for (std::size_t key = 0; key < keys; ++key)
+        m_bucket_start[key + 1] += m_bucket_start[key];
     m_entries.resize(m_scratch.size());
     m_fill.assign(m_bucket_start.begin(), m_bucket_start.end() - 1);
     for (std::size_t i = 0; i < n; ++i) {
@@ -229,23 +245,36 @@ void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
         for (std::int64_t y = a.lo[1]; y <= a.hi[1]; ++y)
             for (std::int64_t x = a.lo[0]; x <= a.hi[0]; ++x) {
                 const std::size_t b = bucket(x, y, z);
-                const auto begin = m_entries.begin() + m_bucket_start[b];
-                const auto end = m_entries.begin() + m_bucket_start[b + 1];
-                // Later items only; each pair is reported from the cell holding the low corner
-                // of the intersection of the two boxes (a cell both boxes cover).
-                auto it = std::upper_bound(
-                    begin, end, i, [](int item, const Entry& e) { return item < e.item; });
-                // Without self pairs, items numbered body by body: skip to the later bodies.
-                if (skip_own_body)
-                    it = std::upper_bound(
-                        it, end, a.body, [](int body, const Entry& e) { return body < e.body; });
-                for (; it != end; ++it) {
-                    // One branch for both tests (each alone is a coin toss for the predictor).
-                    const bool canonical = (std::max(a.lo[0], it->lo[0]) == x)
-                        & (std::max(a.lo[1], it->lo[1]) == y) & (std::max(a.lo[2], it->lo[2]) == z);
-                    if (canonical & boxes_overlap(a.box, it->box) & (self | (a.body != it->body))
-                        && tags_allowed(a.body, a.spheres, it->body, it->spheres))
-                        out.emplace_back(i, it->item);
+                // The start bits the other item needs here (see build()).
+                const std::size_t required
+                    = (x > a.lo[0] ? 1u : 0u) | (y > a.lo[1] ? 2u : 0u) | (z > a.lo[2] ? 4u : 0u);
+                for (std::size_t group = 0; group < start_groups; ++group) {
+                    if ((group & required) != required)
+                        continue;
+                    const std::size_t key = b * start_groups + group;
+                    const auto begin = m_entries.begin() + m_bucket_start[key];
+                    const auto end = m_entries.begin() + m_bucket_start[key + 1];
+                    if (begin == end)
+                        continue;
+                    // Later items only; each pair is reported from the cell holding the low
+                    // corner of the intersection of the two boxes (a cell both boxes cover).
+                    auto it = std::upper_bound(
+                        begin, end, i, [](int item, const Entry& e) { return item < e.item; });
+                    // Without self pairs, items numbered body by body: skip to the later bodies.
+                    if (skip_own_body)
+                        it = std::upper_bound(it, end, a.body,
+                            [](int body, const Entry& e) { return body < e.body; });
+                    for (; it != end; ++it) {
+                        // One branch for both tests (each alone is a coin toss for the
+                        // predictor). Still needed: cells that share a bucket.
+                        const bool canonical = (std::max(a.lo[0], it->lo[0]) == x)
+                            & (std::max(a.lo[1], it->lo[1]) == y)
+                            & (std::max(a.lo[2], it->lo[2]) == z);
+                        if (canonical & boxes_overlap(a.box, it->box)
+                                & (self | (a.body != it->body))
+                            && tags_allowed(a.body, a.spheres, it->body, it->spheres))
+                            out.emplace_back(i, it->item);
+                    }
                 }
             }
     for (auto it = std::upper_bound(m_oversize.begin(), m_oversize.end(), i);

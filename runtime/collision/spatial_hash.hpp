@@ -77,10 +77,7 @@ public:
 
     /// Statistics of the last build().
     double cell_size() const { return m_cell_size; }
-    std::size_t table_size() const
-    {
-        return m_bucket_start.empty() ? 0 : m_bucket_start.size() - 1;
-    }
+    std::size_t table_size() const { return m_table; }
     std::size_t num_entries() const { return m_entries.size(); }
     std::size_t num_oversize() const { return m_oversize.size(); }
 
@@ -114,12 +111,15 @@ private:
     std::vector<Slot> m_slots; ///< per item
     std::vector<int> m_oversize; ///< oversize items, increasing
     std::uint64_t m_mask = 0; ///< table size - 1 (a power of two)
-    std::vector<int> m_bucket_start; ///< table size + 1, CSR over buckets
+    /// Groups per bucket: the 8 start masks (bit k: the entry's item starts there on axis k).
+    static constexpr std::size_t start_groups = 8;
+    std::size_t m_table = 0; ///< buckets
+    std::vector<int> m_bucket_start; ///< buckets x start_groups + 1, CSR over (bucket, mask)
     std::vector<Entry> m_entries; ///< by bucket, increasing item within a bucket
     std::vector<double> m_extents; ///< largest box extents, for the median
-    std::vector<std::size_t> m_scratch; ///< each item's distinct buckets, concatenated
+    std::vector<std::size_t> m_scratch; ///< each item's distinct (bucket, mask) keys
     std::vector<std::size_t> m_item_offsets; ///< #items + 1, CSR into m_scratch
-    std::vector<int> m_fill; ///< table size, scatter cursors
+    std::vector<int> m_fill; ///< per key, scatter cursors
     std::vector<std::vector<ItemPair>> m_chunk_pairs; ///< per chunk of items, reused
 };
 
