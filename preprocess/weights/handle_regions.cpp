@@ -149,7 +149,8 @@ WholeTetRegions give_every_region_a_tet(const Eigen::Ref<const VecXi>& region_ow
     WholeTetRegions result;
     result.owner = region_owner;
     VecXi& owner = result.owner;
-    // kept(i): the handle whose kept tet holds node i, or -1. A handle keeps its nearest whole tet.
+    // kept(i): the handle that keeps node i (its nearest whole tet, or else 4 spanning nodes of
+    // its region, below), or -1.
     VecXi kept = VecXi::Constant(n, -1);
     std::vector<TetChoice> own(
         static_cast<size_t>(m), TetChoice(std::numeric_limits<double>::infinity(), -1));
