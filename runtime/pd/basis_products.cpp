@@ -95,52 +95,6 @@ namespace {
 #endif
     }
 
-    constexpr int lanes = 8;
-
-    /// out rows off_j .. off_j + Terms - 1 = sum over entries [begin, end) of w p_t(y) y_i.
-    template <int Terms, typename Handle>
-    void handle_sums(const Handle& h, int begin, int end, const int* nodes, const double* weights,
-        const double* rest, const double* y, double* out)
-    {
-        alignas(64) double acc[Terms][3][lanes] = {};
-        for (int e0 = begin; e0 < end; e0 += lanes) {
-            const int count = std::min(lanes, end - e0);
-            alignas(64) double px[3][lanes], wy[3][lanes];
-            for (int u = 0; u < lanes; ++u) {
-                const int e = e0 + (u < count ? u : 0);
-                const int i = nodes[e];
-                const double w = u < count ? weights[e] : 0.0;
-                for (int c = 0; c < 3; ++c) {
-                    px[c][u] = (rest[3 * i + c] - h.center[c]) * h.inverse_scale;
-                    wy[c][u] = w * y[3 * i + c];
-                }
-            }
-            for (int c = 0; c < 3; ++c)
-                for (int u = 0; u < lanes; ++u) {
-                    const double v = wy[c][u];
-                    acc[0][c][u] += v;
-                    acc[1][c][u] += px[0][u] * v;
-                    acc[2][c][u] += px[1][u] * v;
-                    acc[3][c][u] += px[2][u] * v;
-                    if constexpr (Terms == quadratic_terms) {
-                        acc[4][c][u] += px[0][u] * px[0][u] * v;
-                        acc[5][c][u] += px[1][u] * px[1][u] * v;
-                        acc[6][c][u] += px[2][u] * px[2][u] * v;
-                        acc[7][c][u] += px[0][u] * px[1][u] * v;
-                        acc[8][c][u] += px[1][u] * px[2][u] * v;
-                        acc[9][c][u] += px[0][u] * px[2][u] * v;
-                    }
-                }
-        }
-        for (int t = 0; t < Terms; ++t)
-            for (int c = 0; c < 3; ++c) {
-                double sum = 0.0;
-                for (int u = 0; u < lanes; ++u)
-                    sum += acc[t][c][u];
-                out[3 * (h.offset + t) + c] = sum;
-            }
-    }
-
 } // namespace
 
 BasisProducts::BasisProducts(const Model& model)
@@ -203,22 +157,7 @@ BasisProducts::BasisProducts(const Model& model)
         }
         m_node_offsets[i + 1] = static_cast<int>(m_node_handles.size());
     }
-    // The same entries by handle, nodes ascending.
-    m_handle_offsets.assign(m + 1, 0);
-    for (const int j : m_node_handles)
-        ++m_handle_offsets[j + 1];
-    for (Index j = 0; j < m; ++j)
-        m_handle_offsets[j + 1] += m_handle_offsets[j];
-    m_handle_nodes.resize(m_node_handles.size());
-    m_handle_weights.resize(m_node_handles.size());
-    std::vector<int> fill(m_handle_offsets.begin(), m_handle_offsets.end() - 1);
-    for (Index i = 0; i < n; ++i)
-        for (int e = m_node_offsets[i]; e < m_node_offsets[i + 1]; ++e) {
-            const int slot = fill[m_node_handles[e]]++;
-            m_handle_nodes[slot] = static_cast<int>(i);
-            m_handle_weights[slot] = m_node_weights[e];
-        }
-    // The reconstruction's origin: the rest centroid (d_i = X_i - o stays small, so that the
+    // The products' origin: the rest centroid (d_i = X_i - o stays small, so that the
     // handles' polynomials rewritten in d lose few digits to cancellation).
     double origin[3] = { 0.0, 0.0, 0.0 };
     for (Index i = 0; i < n; ++i)

@@ -52,12 +52,10 @@ private:
     std::vector<int> m_node_offsets; ///< n + 1: node i's (handle, weight) entries
     std::vector<int> m_node_handles;
     std::vector<double> m_node_weights;
-    std::vector<int> m_handle_offsets; ///< m + 1: handle j's (node, weight) entries
-    std::vector<int> m_handle_nodes;
-    std::vector<double> m_handle_weights;
-    // The reconstruction's data: d_i = X_i - (rest centroid), n x 3; whether node i has weight
-    // from a quadratic handle; per handle its polynomial's coefficients in the monomials of d,
-    // refilled by each call (the affine 12 padded to 16 and aligned, then the quadratic 18).
+    // Both products: d_i = X_i - (rest centroid), n x 3, and whether node i has weight from a
+    // quadratic handle. The reconstruction's workspace: per handle its polynomial's coefficients
+    // in the monomials of d, refilled by each call (the affine 12 padded to 16 and aligned,
+    // then the quadratic 18).
     static constexpr int affine_stride = 16;
     static constexpr int quadratic_stride = 18;
     std::vector<double> m_rest_offsets;
