@@ -252,8 +252,11 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
     HandleBasis basis;
     const auto weights_basis_operators = [&](bool widen) {
         stage(report, "harmonic weights", [&] {
-            rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
-            laplacian = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
+            if (!widen) { // the tets' rest data and the Laplacian serve both passes
+                rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
+                laplacian
+                    = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
+            }
             WholeTetRegions regions;
             regions.owner = assign_handle_regions(bake.tet_mesh.positions, input_medial.centers,
                 input_medial.radii, options.region_alpha);
@@ -316,7 +319,7 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
     try {
         weights_basis_operators(false);
     } catch (const Error& error) {
-        if (std::string(error.what()).find("rank-deficient") == std::string::npos)
+        if (!reports_rank_deficient_basis(error))
             throw;
         logger().info("{}: widening the regions that do not span 3D, then again", error.what());
         weights_basis_operators(true);

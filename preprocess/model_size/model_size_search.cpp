@@ -14,6 +14,7 @@
 #include "formats/surface_io.hpp"
 #include "formats/surface_validation.hpp"
 #include "preprocess/medial/medial_generator.hpp"
+#include "preprocess/pd/reduced_operators.hpp"
 
 namespace mat {
 
@@ -139,8 +140,7 @@ namespace {
                 // for this and every later reduced candidate.
                 const double finer
                     = std::max(m_options.bake.tet_size, tet_size / m_options.tet_growth);
-                if (full_space || !(finer < tet_size)
-                    || std::string(error.what()).find("rank-deficient") == std::string::npos)
+                if (full_space || !(finer < tet_size) || !reports_rank_deficient_basis(error))
                     throw;
                 logger().info("{} spheres at tet size {:.4g}: {}; tet size {:.4g} from now on",
                     spheres, tet_size, error.what(), finer);

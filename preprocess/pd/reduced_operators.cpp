@@ -6,6 +6,8 @@
 
 #include "preprocess/pd/reduced_operators.hpp"
 
+#include <string>
+
 #include <Eigen/Cholesky>
 
 #include "common/error.hpp"
@@ -64,6 +66,11 @@ ReducedSystemCheck check_reduced_system(
     check.min_diagonal = k > 0 ? system.diagonal().minCoeff() : 0.0;
     check.max_diagonal = k > 0 ? system.diagonal().maxCoeff() : 0.0;
     return check;
+}
+
+bool reports_rank_deficient_basis(const std::exception& error)
+{
+    return std::string(error.what()).find("the basis is rank-deficient") != std::string::npos;
 }
 
 } // namespace mat

@@ -4,6 +4,8 @@
 // B^T M B (per unit stiffness and density) and the runtime assembles
 // S = stiffness B^T L B + density B^T M B / h^2 for any time step.
 
+#include <exception>
+
 #include <Eigen/SparseCore>
 
 #include "common/eigen_types.hpp"
@@ -31,5 +33,10 @@ struct ReducedSystemCheck {
 /// 1 / cond is below 1e-13 (a rank-deficient basis: a handle whose weights cover too few nodes).
 ReducedSystemCheck check_reduced_system(
     const ReducedOperators& reduced, double stiffness, double density, double dt);
+
+/// Whether `error` says the basis is rank-deficient (check_reduced_system, or handle regions
+/// that cannot be widened): too few tet-mesh nodes for the handles, so a finer tet mesh may do.
+/// Such messages contain "the basis is rank-deficient".
+bool reports_rank_deficient_basis(const std::exception& error);
 
 } // namespace mat

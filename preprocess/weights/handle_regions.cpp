@@ -196,10 +196,9 @@ WholeTetRegions give_every_region_a_tet(const Eigen::Ref<const VecXi>& region_ow
                 && kept[tets(t, 3)] < 0;
         });
         if (choice.second < 0)
-            throw_error(
-                "handle regions: no tet is left for handle {} (every tet touches another "
-                "handle's kept nodes; {} handles for {} tet-mesh nodes): use fewer spheres or "
-                "a smaller --tet-size",
+            throw_error("handle regions: no tet is left for handle {} (every tet touches another "
+                        "handle's kept nodes; {} handles for {} tet-mesh nodes; the basis is "
+                        "rank-deficient): use fewer spheres or a smaller --tet-size",
                 j, m, n);
         for (int c = 0; c < 4; ++c) {
             owner[tets(choice.second, c)] = static_cast<int>(j);
