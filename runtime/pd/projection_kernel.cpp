@@ -65,7 +65,7 @@ namespace {
         const __m512 half = _mm512_set1_ps(0.5f), three_halves = _mm512_set1_ps(1.5f);
         for (int l = 0; l < W; l += 16) {
             const __m512 v = _mm512_load_ps(x + l);
-            const __m512 y = _mm512_rsqrt14_ps(v);
+            const __m512 y = _mm512_maskz_rsqrt14_ps(0xFFFF, v); // masked: no spurious warning
             // y (3/2 - x y^2 / 2)
             const __m512 hxy2 = _mm512_mul_ps(_mm512_mul_ps(half, v), _mm512_mul_ps(y, y));
             _mm512_store_ps(out + l, _mm512_mul_ps(y, _mm512_sub_ps(three_halves, hxy2)));
@@ -254,6 +254,27 @@ namespace {
 #endif
     }
 
+    /// out = 1 / sqrt(x) on every lane, x > 0 and normal. With AVX-512: the 14-bit estimate and
+    /// two Newton steps (a few ulps), off the divider: a square root and a division per lane
+    /// took the fast decomposition's largest share of cycles.
+    inline void inverse_sqrt_lanes(const DoubleLanes& x, DoubleLanes& out)
+    {
+#if defined(__AVX512F__)
+        const __m512d half = _mm512_set1_pd(0.5), three_halves = _mm512_set1_pd(1.5);
+        for (int l = 0; l < W; l += 8) {
+            const __m512d v = _mm512_load_pd(x + l);
+            const __m512d hv = _mm512_mul_pd(half, v);
+            __m512d y = _mm512_maskz_rsqrt14_pd(0xFF, v); // masked: no spurious -Wuninitialized
+            for (int step = 0; step < 2; ++step) // y (3/2 - v y^2 / 2)
+                y = _mm512_mul_pd(y, _mm512_fnmadd_pd(hv, _mm512_mul_pd(y, y), three_halves));
+            _mm512_store_pd(out + l, y);
+        }
+#else
+        for (int l = 0; l < W; ++l)
+            out[l] = 1.0 / std::sqrt(x[l]);
+#endif
+    }
+
     /// out = a / b on every lane. With AVX-512: the 14-bit reciprocal estimate, two Newton
     /// steps and one correction of the quotient (a few ulps). A zero b gives NaN there instead
     /// of an infinity: the callers treat both as not usable.
@@ -324,10 +345,15 @@ namespace {
     /// is diagonal to float_tolerance; the result's quaternion goes to qw, qv and to `warm`.
     void float_stage(const MatBlock& fb, RotationBlock& warm, FloatLanes& qw, float (&qv)[3][W])
     {
-        alignas(64) float a[3][3][W];
+        alignas(64) float a[3][3][W], norm2[W], inverse[W];
+        for (int l = 0; l < W; ++l) {
+            const float w = warm.q[0][l], x = warm.q[1][l], y = warm.q[2][l], z = warm.q[3][l];
+            norm2[l] = std::max(w * w + x * x + y * y + z * z, std::numeric_limits<float>::min());
+        }
+        inverse_sqrt(norm2, inverse);
         for (int l = 0; l < W; ++l) {
             float w = warm.q[0][l], x = warm.q[1][l], y = warm.q[2][l], z = warm.q[3][l];
-            const float inv = 1.0f / std::sqrt(w * w + x * x + y * y + z * z);
+            const float inv = inverse[l];
             w *= inv;
             x *= inv;
             y *= inv;
@@ -372,9 +398,15 @@ namespace {
     void double_setup(
         const MatBlock& fb, const FloatLanes& qw, const float (&qv)[3][W], DoubleStage& d)
     {
+        alignas(64) double norm2[W], inverse[W];
+        for (int l = 0; l < W; ++l) {
+            const double w = qw[l], x = qv[0][l], y = qv[1][l], z = qv[2][l];
+            norm2[l] = std::max(w * w + x * x + y * y + z * z, 1e-300);
+        }
+        inverse_sqrt_lanes(norm2, inverse);
         for (int l = 0; l < W; ++l) {
             double w = qw[l], x = qv[0][l], y = qv[1][l], z = qv[2][l];
-            const double inv = 1.0 / std::sqrt(w * w + x * x + y * y + z * z);
+            const double inv = inverse[l];
             w *= inv;
             x *= inv;
             y *= inv;
@@ -429,14 +461,19 @@ namespace {
         }
         if (!all_below(excess, 0.0))
             return false;
+        // Every diag is positive and finite here (the test above).
+        alignas(64) double inverse_s[3][W];
+        for (int i = 0; i < 3; ++i)
+            inverse_sqrt_lanes(diag[i], inverse_s[i]);
         for (int l = 0; l < W; ++l) {
 #pragma GCC unroll 3
             for (int i = 0; i < 3; ++i)
-                s[i][l] = std::sqrt(diag[i][l]);
+                s[i][l] = diag[i][l] * inverse_s[i][l];
             s[2][l] = det[l] < 0.0 ? -s[2][l] : s[2][l];
+            inverse_s[2][l] = det[l] < 0.0 ? -inverse_s[2][l] : inverse_s[2][l];
 #pragma GCC unroll 3
             for (int i = 0; i < 3; ++i) {
-                const double inverse = 1.0 / s[i][l];
+                const double inverse = inverse_s[i][l];
 #pragma GCC unroll 3
                 for (int r = 0; r < 3; ++r)
                     d.u[r][i][l] = d.b[r][i][l] * inverse;
@@ -619,11 +656,12 @@ void project_block(
         svd_block(f, warm, d, ss);
 
     // The volume projection only where some lane needs it (a branch per block, see the header).
-    bool any_active = false;
+    int num_active = 0; // an integer sum: vectorized, where a chain of |= is one compare per lane
     for (int l = 0; l < W; ++l) {
         const double det = ss[0][l] * ss[1][l] * ss[2][l];
-        any_active |= (det < t_lo) | (det > t_hi);
+        num_active += (det < t_lo) | (det > t_hi) ? 1 : 0;
     }
+    const bool any_active = num_active > 0;
     alignas(64) double k[3][W];
     if (any_active && wv != 0.0) {
         const double cbrt_lo = std::cbrt(t_lo), cbrt_hi = std::cbrt(t_hi);
