@@ -427,16 +427,16 @@ namespace {
     }
 
     /// The fast decomposition (ProjectionParams::exact false): the float stage's V made
-    /// orthogonal in double, B = F V, s_i = |b_i| (columns sorted by it, the smallest negated for
-    /// an inverted F) and U = B S^-1, with no double Jacobi sweep and no QR. Then
-    /// U diag(k) V^T = F V S^-1 diag(k) V^T is exact when F is a rotation times a uniform
-    /// stretch (at rest, under rigid motion: |b_i| is then exact whatever V's error), and
-    /// otherwise off by about the float stage's angle error times the relative spread of the
-    /// singular values. Returns false, leaving the block to the exact path, when some lane's
-    /// smallest singular value is below fast_min_ratio times its largest (U's error grows as
-    /// their ratio) or F is not finite.
-    bool fast_svd_block(
-        const MatBlock& fb, RotationBlock& warm, DoubleStage& d, DoubleLanes (&s)[3])
+    /// orthogonal in double, B = F V, s_i = |b_i| (the smallest negated for an inverted F; its
+    /// column index goes to `smallest`, the columns are not sorted) and U = B S^-1, with no double
+    /// Jacobi sweep and no QR. Then U diag(k) V^T = F V S^-1 diag(k) V^T is exact when F is a
+    /// rotation times a uniform stretch (at rest, under rigid motion: |b_i| is then exact whatever
+    /// V's error), and otherwise off by about the float stage's angle error times the relative
+    /// spread of the singular values. Returns false, leaving the block to the exact path, when
+    /// some lane's smallest singular value is below fast_min_ratio times its largest (U's error
+    /// grows as their ratio) or F is not finite.
+    bool fast_svd_block(const MatBlock& fb, RotationBlock& warm, DoubleStage& d,
+        DoubleLanes (&s)[3], int (&smallest)[W])
     {
         alignas(64) float qw[W], qv[3][W];
         float_stage(fb, warm, qw, qv);
@@ -451,13 +451,14 @@ namespace {
                          f4 = fb.m[4][l], f5 = fb.m[5][l], f6 = fb.m[6][l], f7 = fb.m[7][l],
                          f8 = fb.m[8][l];
             det[l] = f0 * (f4 * f8 - f5 * f7) - f1 * (f3 * f8 - f5 * f6) + f2 * (f3 * f7 - f4 * f6);
-        }
-        sort_columns(d, diag, 0, 1);
-        sort_columns(d, diag, 0, 2);
-        sort_columns(d, diag, 1, 2);
-        for (int l = 0; l < W; ++l) {
+            const double d0 = diag[0][l], d1 = diag[1][l], d2 = diag[2][l];
+            const bool first = d0 <= d1 && d0 <= d2;
+            const bool second = !first && d1 <= d2;
+            smallest[l] = first ? 0 : (second ? 1 : 2);
+            const double low = std::min(std::min(d0, d1), d2);
+            const double high = std::max(std::max(d0, d1), d2);
             // Negated so that NaN fails the test below.
-            excess[l] = diag[2][l] > fast_min_ratio * fast_min_ratio * diag[0][l] ? -1.0 : 1.0;
+            excess[l] = low > fast_min_ratio * fast_min_ratio * high ? -1.0 : 1.0;
         }
         if (!all_below(excess, 0.0))
             return false;
@@ -467,13 +468,10 @@ namespace {
             inverse_sqrt_lanes(diag[i], inverse_s[i]);
         for (int l = 0; l < W; ++l) {
 #pragma GCC unroll 3
-            for (int i = 0; i < 3; ++i)
-                s[i][l] = diag[i][l] * inverse_s[i][l];
-            s[2][l] = det[l] < 0.0 ? -s[2][l] : s[2][l];
-            inverse_s[2][l] = det[l] < 0.0 ? -inverse_s[2][l] : inverse_s[2][l];
-#pragma GCC unroll 3
             for (int i = 0; i < 3; ++i) {
-                const double inverse = inverse_s[i][l];
+                const bool flip = det[l] < 0.0 && smallest[l] == i;
+                s[i][l] = flip ? -diag[i][l] * inverse_s[i][l] : diag[i][l] * inverse_s[i][l];
+                const double inverse = flip ? -inverse_s[i][l] : inverse_s[i][l];
 #pragma GCC unroll 3
                 for (int r = 0; r < 3; ++r)
                     d.u[r][i][l] = d.b[r][i][l] * inverse;
@@ -544,11 +542,11 @@ namespace {
                 s[i][l] = d.b[i][i][l];
     }
 
-    /// Nearest d to the signed singular values s (s0 >= s1 >= |s2|) with d0 d1 d2 = t > 0, on
-    /// every lane (t and cbrt(t) per lane). Stationarity of ||d - s||^2 + 2 lambda (prod d - t)
-    /// gives d_i (d_i - s_i) = mu, the same for all i. Parametrized by x = d2: mu = x (x - s2),
-    /// d_j = (s_j + sqrt(s_j^2 + 4 mu)) / 2 for j = 0, 1 (their larger roots, real since
-    /// |s_j| >= |s2|), and P(x) = x d0 d1 = t is solved by Newton steps kept inside a bracket
+    /// Nearest d to the signed singular values s (|s0|, |s1| >= |s2|, only s2 may be negative) with
+    /// d0 d1 d2 = t > 0, on every lane (t and cbrt(t) per lane). Stationarity of ||d - s||^2 + 2
+    /// lambda (prod d - t) gives d_i (d_i - s_i) = mu, the same for all i. Parametrized by x = d2:
+    /// mu = x (x - s2), d_j = (s_j + sqrt(s_j^2 + 4 mu)) / 2 for j = 0, 1 (their larger roots, real
+    /// since |s_j| >= |s2|), and P(x) = x d0 d1 = t is solved by Newton steps kept inside a bracket
     /// (bisection otherwise), a fixed number of them. x >= s2 / 2 is the branch of the larger
     /// root for d2 too; when that branch cannot shrink enough (a strong one-axis stretch),
     /// x < s2 / 2 is the smaller root, still a stationary point. Finally d2 = t / (d0 d1) makes
@@ -652,8 +650,12 @@ void project_block(
 
     alignas(64) DoubleStage d;
     alignas(64) double ss[3][W];
-    if (params.exact || !fast_svd_block(f, warm, d, ss))
-        svd_block(f, warm, d, ss);
+    alignas(64) int smallest[W]; // the column of the smallest |singular value|
+    if (params.exact || !fast_svd_block(f, warm, d, ss, smallest)) {
+        svd_block(f, warm, d, ss); // sorted: the last column is the smallest
+        for (int l = 0; l < W; ++l)
+            smallest[l] = 2;
+    }
 
     // The volume projection only where some lane needs it (a branch per block, see the header).
     int num_active = 0; // an integer sum: vectorized, where a chain of |= is one compare per lane
@@ -671,7 +673,22 @@ void project_block(
             t[l] = grow ? t_lo : t_hi;
             cbrt_t[l] = grow ? cbrt_lo : cbrt_hi;
         }
-        volume_block(ss, t, cbrt_t, dv);
+        // volume_block wants the smallest last: swap it with column 2 there and back.
+        alignas(64) double sv[3][W];
+        for (int l = 0; l < W; ++l) {
+            const int m = smallest[l];
+            sv[0][l] = m == 0 ? ss[2][l] : ss[0][l];
+            sv[1][l] = m == 1 ? ss[2][l] : ss[1][l];
+            sv[2][l] = m == 0 ? ss[0][l] : (m == 1 ? ss[1][l] : ss[2][l]);
+        }
+        volume_block(sv, t, cbrt_t, dv);
+        for (int l = 0; l < W; ++l) {
+            const int m = smallest[l];
+            const double d0 = dv[0][l], d1 = dv[1][l], d2 = dv[2][l];
+            dv[0][l] = m == 0 ? d2 : d0;
+            dv[1][l] = m == 1 ? d2 : d1;
+            dv[2][l] = m == 0 ? d0 : (m == 1 ? d1 : d2);
+        }
         for (int l = 0; l < W; ++l) {
             const double det = ss[0][l] * ss[1][l] * ss[2][l];
             const bool active = (det < t_lo) | (det > t_hi);
