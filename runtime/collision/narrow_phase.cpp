@@ -14,6 +14,10 @@ namespace {
 
     using Item = NarrowPhase::Item;
 
+    /// The work lists are split into this many chunks (enough for load balance on a few
+    /// threads), each with its own results: they do not depend on the thread split.
+    constexpr int work_chunks = 64;
+
     bool boxes_overlap(const Box3& a, const Box3& b)
     {
         return (a.min().x() <= b.max().x()) & (a.min().y() <= b.max().y())
@@ -296,6 +300,19 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
 {
     prepare(bodies);
     activate(bodies, pairs, margin);
+    if (m_scratch.size() < static_cast<std::size_t>(work_chunks))
+        m_scratch.resize(work_chunks);
+    // visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
+    const auto in_chunks = [&](std::size_t n, const auto& visit) {
+        tbb::parallel_for(
+            tbb::blocked_range<int>(0, work_chunks, 1), [&](const tbb::blocked_range<int>& chunks) {
+                for (int c = chunks.begin(); c != chunks.end(); ++c) {
+                    Scratch& scratch = m_scratch[static_cast<std::size_t>(c)];
+                    for (std::size_t k = c * n / work_chunks; k != (c + 1) * n / work_chunks; ++k)
+                        visit(scratch, k);
+                }
+            });
+    };
     for (Scratch& scratch : m_scratch) {
         scratch.intersecting.clear();
         scratch.triangle_tests = 0;
@@ -312,101 +329,92 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         for (std::size_t i = 0; i < m_bodies[b].nodes.size(); ++i)
             m_node_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
     }
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_work.size(), 32),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-            Scratch& scratch = m_scratch.local();
-            for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                const int ba = m_work[k][0];
-                const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
-                const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
-                const int fa = item.index;
-                const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
-                const Vec3 a0 = corner(a, fa, 0);
-                const Vec3 a1 = corner(a, fa, 1);
-                const Vec3 a2 = corner(a, fa, 2);
-                for (const int bb : data.partners) {
-                    if (bb < ba)
-                        continue;
-                    const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-                    overlapping(bb, item.box, 0.0, [&](int fb) {
-                        if (bb == ba) {
-                            if (fb <= fa)
-                                return;
-                            bool shared = false;
-                            for (int u = 0; u < 3; ++u)
-                                for (int v = 0; v < 3; ++v)
-                                    shared |= (*a.faces)(fa, u) == (*b.faces)(fb, v);
-                            if (shared || !self_pair_allowed(ba, fa, fb, false))
-                                return;
-                        }
-                        ++scratch.triangle_tests;
-                        if (triangles_intersect(
-                                a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
-                            scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
-                    });
+    in_chunks(m_work.size(), [&](Scratch& scratch, std::size_t k) {
+        const int ba = m_work[k][0];
+        const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
+        const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
+        const int fa = item.index;
+        const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
+        const Vec3 a0 = corner(a, fa, 0);
+        const Vec3 a1 = corner(a, fa, 1);
+        const Vec3 a2 = corner(a, fa, 2);
+        for (const int bb : data.partners) {
+            if (bb < ba)
+                continue;
+            const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
+            overlapping(bb, item.box, 0.0, [&](int fb) {
+                if (bb == ba) {
+                    if (fb <= fa)
+                        return;
+                    bool shared = false;
+                    for (int u = 0; u < 3; ++u)
+                        for (int v = 0; v < 3; ++v)
+                            shared |= (*a.faces)(fa, u) == (*b.faces)(fb, v);
+                    if (shared || !self_pair_allowed(ba, fa, fb, false))
+                        return;
                 }
-            }
-        });
+                ++scratch.triangle_tests;
+                if (triangles_intersect(
+                        a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
+                    scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
+            });
+        }
+    });
 
     // Nodes: against the triangles of every partner body whose box grown by the margin holds
     // them; the nearest within the margin (or behind) wins, ties to the lowest (body, face).
     m_node_best.resize(m_node_work.size());
     m_node_found.assign(m_node_work.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_node_work.size(), 16),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-            Scratch& scratch = m_scratch.local();
-            for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                const int bn = m_node_work[k][0];
-                const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
-                const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
-                const Vec3 x = item.box.min();
-                NodeCandidate& best = m_node_best[k];
-                bool found = false;
-                for (const int bf : data.partners) {
-                    const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
-                    overlapping(bf, item.box, margin, [&](int f) {
-                        if (bf == bn && !self_pair_allowed(bn, item.index, f, true))
-                            return;
-                        ++scratch.node_tests;
-                        const Vec3 p0 = corner(other, f, 0);
-                        const Vec3 p1 = corner(other, f, 1);
-                        const Vec3 p2 = corner(other, f, 2);
-                        const Vec3 n = (p1 - p0).cross(p2 - p0);
-                        const double length = n.norm();
-                        // In front of the triangle's plane by the margin or more: so is its
-                        // closest point (which lies in the plane), and the node is no candidate.
-                        if (length > 0.0 && n.dot(x - p0) >= margin * length)
-                            return;
-                        const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
-                        const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
-                        const double distance = std::sqrt(closest.squared_distance);
-                        const double signed_distance
-                            = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
-                        if (signed_distance >= margin)
-                            return;
-                        const double d = std::abs(signed_distance);
-                        const double d_best = std::abs(best.distance);
-                        if (found
-                            && (d > d_best
-                                || (d == d_best
-                                    && std::make_pair(bf, f)
-                                        > std::make_pair(best.other_body, best.face))))
-                            return;
-                        best.body = bn;
-                        best.node = item.index;
-                        best.other_body = bf;
-                        best.face = f;
-                        best.distance = signed_distance;
-                        best.closest = closest.point;
-                        best.normal = unit;
-                        found = true;
-                    });
-                }
-                m_node_found[k] = found;
-            }
-        });
+    in_chunks(m_node_work.size(), [&](Scratch& scratch, std::size_t k) {
+        const int bn = m_node_work[k][0];
+        const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
+        const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
+        const Vec3 x = item.box.min();
+        NodeCandidate& best = m_node_best[k];
+        bool found = false;
+        for (const int bf : data.partners) {
+            const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
+            overlapping(bf, item.box, margin, [&](int f) {
+                if (bf == bn && !self_pair_allowed(bn, item.index, f, true))
+                    return;
+                ++scratch.node_tests;
+                const Vec3 p0 = corner(other, f, 0);
+                const Vec3 p1 = corner(other, f, 1);
+                const Vec3 p2 = corner(other, f, 2);
+                const Vec3 n = (p1 - p0).cross(p2 - p0);
+                const double length = n.norm();
+                // In front of the triangle's plane by the margin or more: so is its
+                // closest point (which lies in the plane), and the node is no candidate.
+                if (length > 0.0 && n.dot(x - p0) >= margin * length)
+                    return;
+                const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
+                const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+                const double distance = std::sqrt(closest.squared_distance);
+                const double signed_distance
+                    = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
+                if (signed_distance >= margin)
+                    return;
+                const double d = std::abs(signed_distance);
+                const double d_best = std::abs(best.distance);
+                if (found
+                    && (d > d_best
+                        || (d == d_best
+                            && std::make_pair(bf, f) > std::make_pair(best.other_body, best.face))))
+                    return;
+                best.body = bn;
+                best.node = item.index;
+                best.other_body = bf;
+                best.face = f;
+                best.distance = signed_distance;
+                best.closest = closest.point;
+                best.normal = unit;
+                found = true;
+            });
+        }
+        m_node_found[k] = found;
+    });
 
-    // Merge, in an order that ignores the thread split.
+    // Merge, in chunk order.
     m_intersecting.clear();
     m_triangle_tests = 0;
     m_node_tests = 0;

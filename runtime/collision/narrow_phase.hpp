@@ -30,8 +30,6 @@
 #include <cstdint>
 #include <vector>
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include "common/eigen_types.hpp"
 
 namespace mat {
@@ -149,7 +147,9 @@ private:
     std::vector<std::array<int, 2>> m_node_work; ///< (body, index into its active nodes)
     std::vector<NodeCandidate> m_node_best; ///< per m_node_work
     std::vector<char> m_node_found;
-    tbb::enumerable_thread_specific<Scratch> m_scratch;
+    /// One per chunk of the work lists (a fixed number, never per thread): each chunk's results
+    /// do not depend on the thread split, so once warm a repeated scene allocates nothing.
+    std::vector<Scratch> m_scratch;
     std::vector<FacePair> m_intersecting;
     std::vector<NodeCandidate> m_candidates;
     long m_triangle_tests = 0;
