@@ -23,6 +23,8 @@ namespace {
     /// a few threads; each chunk boundary duplicates the slots of the nodes it cuts).
     constexpr Index blocks_per_chunk = 48;
     constexpr Index max_chunks = 64;
+    /// Doubles per slot: x, y, z and one unused, so that a corner's share is one vector add.
+    constexpr std::size_t slot_stride = 4;
 
     /// p[c][k][l] = x[3 nodes[c][l] + k]: the corner positions of a block's tets, lanes
     /// contiguous. With AVX-512, one 8-lane gather per corner, coordinate and half block:
@@ -50,6 +52,56 @@ namespace {
                 p[c][0][l] = xc[0];
                 p[c][1][l] = xc[1];
                 p[c][2][l] = xc[2];
+            }
+#endif
+    }
+
+    /// slot += share for every corner of the block's lanes, one 4-double slot per node (x, y, z,
+    /// unused). Padding lanes add zeros (their volume is 0) to lane 0's slots. With AVX-512 the
+    /// shares are transposed in registers to one 4-double vector per corner and lane, and each
+    /// corner costs one load, add and store.
+    template <typename BlockT>
+    inline void scatter_shares(
+        const BlockT& block, const double (&share)[4][3][projection_lanes], double* slot_sums)
+    {
+#if defined(__AVX512F__)
+        const __m512i low_pairs = _mm512_set_epi64(11, 10, 3, 2, 9, 8, 1, 0);
+        const __m512i high_pairs = _mm512_set_epi64(15, 14, 7, 6, 13, 12, 5, 4);
+        const __m512d zero = _mm512_setzero_pd();
+        const auto add = [&](int slot, __m256d value) {
+            double* o = slot_sums + slot_stride * slot;
+            _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), value));
+        };
+        for (int k = 0; k < 4; ++k)
+            for (int h = 0; h < projection_lanes; h += 8) {
+                const __m512d x = _mm512_load_pd(&share[k][0][h]);
+                const __m512d y = _mm512_load_pd(&share[k][1][h]);
+                const __m512d z = _mm512_load_pd(&share[k][2][h]);
+                const __m512d xy_even = _mm512_unpacklo_pd(x, y); // x0 y0 x2 y2 x4 y4 x6 y6
+                const __m512d xy_odd = _mm512_unpackhi_pd(x, y);
+                const __m512d z_even = _mm512_unpacklo_pd(z, zero); // z0 0 z2 0 ...
+                const __m512d z_odd = _mm512_unpackhi_pd(z, zero);
+                const __m512d l02 = _mm512_permutex2var_pd(xy_even, low_pairs, z_even);
+                const __m512d l46 = _mm512_permutex2var_pd(xy_even, high_pairs, z_even);
+                const __m512d l13 = _mm512_permutex2var_pd(xy_odd, low_pairs, z_odd);
+                const __m512d l57 = _mm512_permutex2var_pd(xy_odd, high_pairs, z_odd);
+                const int* slot = &block.slots[k][h];
+                add(slot[0], _mm512_castpd512_pd256(l02));
+                add(slot[1], _mm512_castpd512_pd256(l13));
+                add(slot[2], _mm512_extractf64x4_pd(l02, 1));
+                add(slot[3], _mm512_extractf64x4_pd(l13, 1));
+                add(slot[4], _mm512_castpd512_pd256(l46));
+                add(slot[5], _mm512_castpd512_pd256(l57));
+                add(slot[6], _mm512_extractf64x4_pd(l46, 1));
+                add(slot[7], _mm512_extractf64x4_pd(l57, 1));
+            }
+#else
+        for (int k = 0; k < 4; ++k)
+            for (int l = 0; l < projection_lanes; ++l) {
+                double* o = slot_sums + slot_stride * block.slots[k][l];
+                o[0] += share[k][0][l];
+                o[1] += share[k][1][l];
+                o[2] += share[k][2][l];
             }
 #endif
     }
@@ -230,7 +282,7 @@ LocalStep::LocalStep(const Model& model, bool exact, const std::vector<int>& ids
     for (Index i = 0; i < n; ++i)
         if (m_node_slot_offsets[i + 1] > m_node_slot_offsets[i])
             m_touched.push_back(static_cast<int>(i));
-    m_slot_sums.assign(3 * static_cast<std::size_t>(next), 0.0);
+    m_slot_sums.assign(slot_stride * static_cast<std::size_t>(next), 0.0);
 }
 
 void LocalStep::compute(
@@ -303,33 +355,20 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
                         + d1 * block.dm_inverse[3 + c][l] + d2 * block.dm_inverse[6 + c][l];
             }
         project_block(f, params, target, m_warm[b]);
-        // q(r, c) = vol (Dm^-1 target^T)(r, c) = vol sum_j Dm^-1(r, j) target(c, j), into f.
+        // Corner r + 1's share q(r, c) = vol (Dm^-1 target^T)(r, c) = vol sum_j Dm^-1(r, j)
+        // target(c, j), corner 0's minus their sum, in SIMD.
+        alignas(64) double share[4][3][lanes];
         for (int l = 0; l < lanes; ++l)
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c < 3; ++c)
-                    f.m[3 * r + c][l] = block.volume[l]
+                    share[r + 1][c][l] = block.volume[l]
                         * (block.dm_inverse[3 * r][l] * target.m[3 * c][l]
                             + block.dm_inverse[3 * r + 1][l] * target.m[3 * c + 1][l]
                             + block.dm_inverse[3 * r + 2][l] * target.m[3 * c + 2][l]);
-        // Corner 0's share, minus the others' sum, in SIMD: the scatter then adds 12 values
-        // per tet, one chain per slot.
-        alignas(64) double corner0[3][lanes];
         for (int l = 0; l < lanes; ++l)
             for (int c = 0; c < 3; ++c)
-                corner0[c][l] = -(f.m[c][l] + f.m[3 + c][l] + f.m[6 + c][l]);
-        for (int l = 0; l < block.count; ++l) {
-            double* o0 = slot_sums + 3 * block.slots[0][l];
-            o0[0] += corner0[0][l];
-            o0[1] += corner0[1][l];
-            o0[2] += corner0[2][l];
-#pragma GCC unroll 3
-            for (int r = 0; r < 3; ++r) {
-                double* o = slot_sums + 3 * block.slots[r + 1][l];
-                o[0] += f.m[3 * r][l];
-                o[1] += f.m[3 * r + 1][l];
-                o[2] += f.m[3 * r + 2][l];
-            }
-        }
+                share[0][c][l] = -(share[1][c][l] + share[2][c][l] + share[3][c][l]);
+        scatter_shares(block, share, slot_sums);
     };
 
     // Each chunk sums its blocks into its own slots (one thread per chunk, blocks in order),
@@ -338,8 +377,8 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
         tbb::blocked_range<int>(0, num_chunks(), 1), [&](const tbb::blocked_range<int>& range) {
             MatBlock f, target;
             for (int c = range.begin(); c != range.end(); ++c) {
-                std::fill(m_slot_sums.begin() + 3 * static_cast<std::size_t>(m_chunk_slots[c]),
-                    m_slot_sums.begin() + 3 * static_cast<std::size_t>(m_chunk_slots[c + 1]), 0.0);
+                std::fill(m_slot_sums.begin() + slot_stride * m_chunk_slots[c],
+                    m_slot_sums.begin() + slot_stride * m_chunk_slots[c + 1], 0.0);
                 for (int b = m_chunk_blocks[c]; b < m_chunk_blocks[c + 1]; ++b)
                     run_block(b, f, target);
             }
@@ -355,7 +394,7 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
                 const Index i = touched_only ? touched[r] : r;
                 double s0 = 0.0, s1 = 0.0, s2 = 0.0;
                 for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
-                    const double* v = sums + 3 * slots[j];
+                    const double* v = sums + slot_stride * slots[j];
                     s0 += v[0];
                     s1 += v[1];
                     s2 += v[2];
