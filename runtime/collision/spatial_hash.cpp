@@ -13,7 +13,7 @@ namespace mat {
 namespace {
 
     // Items per chunk of the pair search: the unit of parallel work and of output buffering.
-    constexpr int chunk_items = 256;
+    constexpr int chunk_items = 32;
     // Cell coordinates beyond this magnitude (in cells) go to the oversize list, so that the
     // integer arithmetic below never overflows.
     constexpr double max_cell_coordinate = 0x1p61;
