@@ -255,7 +255,15 @@ double Primitive::radius(const Vec3& weights) const
 
 bool primitives_intersect(const Primitive& a, const Primitive& b)
 {
-    const Pair q(a, b);
+    const Pair q(a, b); // checks both primitives
+    // Two overlapping vertex spheres settle it at once (each lies in its primitive): a third of
+    // the collision bench's candidates, most of its intersecting pairs.
+    for (int i = 0; i < a.count; ++i)
+        for (int j = 0; j < b.count; ++j) {
+            const double reach = a.radii[i] + b.radii[j];
+            if ((a.centers[i] - b.centers[j]).squaredNorm() <= reach * reach)
+                return true;
+        }
     const double tolerance = k_touch_tolerance * q.extent;
 
     // A separating plane across the axis between the centroids settles most distant pairs.
