@@ -211,6 +211,36 @@ void BasisProducts::transpose_times(const double* y, double* out)
             });
         return;
     }
+    transpose_times_rows(
+        [y](Index i, double(&v)[3]) {
+            v[0] = y[3 * i];
+            v[1] = y[3 * i + 1];
+            v[2] = y[3 * i + 2];
+        },
+        out);
+}
+
+void BasisProducts::transpose_times(const LocalSums& y, double* out)
+{
+    if (!m_factored) {
+        // The CSR loops read each node once per column: write y out first.
+        const Index n = m_model.num_nodes();
+        m_rows.resize(n, 3);
+        tbb::parallel_for(tbb::blocked_range<Index>(0, n, 1024), [&](const auto& range) {
+            for (Index i = range.begin(); i != range.end(); ++i) {
+                double v[3];
+                y.row(i, v);
+                m_rows.row(i) << v[0], v[1], v[2];
+            }
+        });
+        transpose_times(m_rows.data(), out);
+        return;
+    }
+    transpose_times_rows([&y](Index i, double(&v)[3]) { y.row(i, v); }, out);
+}
+
+template <typename Row> void BasisProducts::transpose_times_rows(const Row& row, double* out)
+{
     // Column off_j + t of B^T y = sum_i w_ij p_t((d_i - delta_j) sigma_j) y_i (d_i = X_i - o,
     // delta_j = c_j - o, o the rest centroid): expanded in the monomials of d, handle j needs
     // S_j = sum_i w_ij [y_i, d_i (x) y_i] (12 values; 18 more, d_a d_b y_i, for a quadratic
@@ -231,7 +261,8 @@ void BasisProducts::transpose_times(const double* y, double* out)
                 std::fill(rows2, rows2 + quadratic_stride * m, 0.0);
             const Index first = c * n / chunks, last = (c + 1) * n / chunks;
             for (Index i = first; i < last; ++i) {
-                const double* yi = y + 3 * i;
+                double yi[3];
+                row(i, yi);
                 const double* di = d + 3 * i;
                 alignas(64) double terms[affine_stride] = { yi[0], yi[1], yi[2], di[0] * yi[0],
                     di[0] * yi[1], di[0] * yi[2], di[1] * yi[0], di[1] * yi[1], di[1] * yi[2],

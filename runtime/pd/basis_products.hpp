@@ -20,6 +20,7 @@
 
 #include "common/eigen_types.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/local_step.hpp"
 
 namespace mat {
 
@@ -33,6 +34,9 @@ public:
     /// out = B^T y: `y`  n x 3 row-major (3 n doubles), `out`  k x 3 row-major (3 k doubles).
     /// Not for concurrent calls on one object (it keeps a workspace).
     void transpose_times(const double* y, double* out);
+    /// The same with y read row by row from the local step's sums (y = base + the slot sums, see
+    /// LocalSums): the right-hand side is never written out.
+    void transpose_times(const LocalSums& y, double* out);
     /// x = X + B q: `q`  k x 3 row-major, `x`  n x 3 row-major.
     /// Not for concurrent calls on one object (it keeps a workspace).
     void reconstruct(const double* q, double* x);
@@ -68,6 +72,10 @@ private:
     bool m_any_quadratic = false;
     std::vector<double, Eigen::aligned_allocator<double>> m_chunk_rows;
     std::vector<double> m_chunk_quadratic_rows;
+    MatX3 m_rows; ///< the CSR fallback's y, when given as LocalSums
+
+    /// out = B^T y with row(i, v) writing y_i into v.
+    template <typename Row> void transpose_times_rows(const Row& row, double* out);
 };
 
 } // namespace mat

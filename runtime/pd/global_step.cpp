@@ -153,6 +153,16 @@ void ReducedGlobalStep::set_reduced_coordinates(const Eigen::Ref<const MatX>& q)
     m_q = q;
 }
 
+void ReducedGlobalStep::solve(const LocalSums& rhs, SolverTimings& timings)
+{
+    Timer timer;
+    m_products.transpose_times(rhs, m_q_rows.data());
+    timings.rhs += timer.seconds();
+    timer.restart();
+    solve_rows();
+    timings.solve += timer.seconds();
+}
+
 Vec3 ReducedGlobalStep::node_position(int node) const
 {
     Eigen::RowVector3d x = m_model.rest_positions().row(node);

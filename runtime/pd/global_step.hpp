@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "common/error.hpp"
 #include "common/sparse_cholesky.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/basis_products.hpp"
@@ -36,6 +37,14 @@ public:
     /// Solves with the right-hand side `rhs`  n x 3 (which may be overwritten; it includes the
     /// constant terms) and keeps the solution inside (no contact forces).
     virtual void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) = 0;
+    /// Whether solve(const LocalSums&) is available: the right-hand side read node by node from
+    /// the local step's sums, never written out (a pass over the nodes less per iteration).
+    virtual bool takes_local_sums() const { return false; }
+    /// The same solve with the right-hand side given as `rhs` (only if takes_local_sums()).
+    virtual void solve(const LocalSums& rhs, SolverTimings& timings)
+    {
+        throw_error("global step: this step needs the right-hand side written out");
+    }
     /// Position of `node` in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
     /// Makes the coupling columns of `nodes` available (cached across calls while the nodes stay
@@ -81,6 +90,8 @@ public:
     /// Subtracts A X (the displacement form's shift).
     void add_constant_terms(Eigen::Ref<MatX3> base) const override;
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
+    bool takes_local_sums() const override { return true; }
+    void solve(const LocalSums& rhs, SolverTimings& timings) override;
     Vec3 node_position(int node) const override;
     void prepare_nodes(const std::vector<int>& nodes) override;
     double coupling(int node_i, int node_j) const override;

@@ -25,6 +25,7 @@ namespace {
     constexpr Index max_chunks = 64;
     /// Doubles per slot: x, y, z and one unused, so that a corner's share is one vector add.
     constexpr std::size_t slot_stride = 4;
+    static_assert(slot_stride == 4, "LocalSums (local_step.hpp) reads 4 doubles per slot");
 
     /// p[c][k][l] = x[3 nodes[c][l] + k]: the corner positions of a block's tets, lanes
     /// contiguous. With AVX-512, one 8-lane gather per corner, coordinate and half block:
@@ -312,17 +313,58 @@ void LocalStep::assemble(const Model& model, const Eigen::Ref<const MatX3>& posi
     run(model, positions, base.data(), rhs);
 }
 
+void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& positions)
+{
+    project_chunks(model, positions);
+}
+
 void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions,
     const double* base, Eigen::Ref<MatX3> rhs, bool touched_only)
 {
     const Index n = model.num_nodes();
-    MAT_CHECK(positions.rows() == n && rhs.rows() == n,
-        "local step: {} positions / {} rhs rows for a model of {} nodes", positions.rows(),
-        rhs.rows(), n);
+    MAT_CHECK(rhs.rows() == n && rhs.outerStride() == 3,
+        "local step: rhs has {} rows for a model of {} nodes (contiguous rows needed)", rhs.rows(),
+        n);
+    project_chunks(model, positions);
+    double* out = rhs.data();
+    const double* sums = m_slot_sums.data();
+    const int* offsets = m_node_slot_offsets.data();
+    const int* slots = m_node_slots.data();
+    const int* touched = m_touched.data();
+    const Index count = touched_only ? static_cast<Index>(m_touched.size()) : n;
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, count, 1024), [&](const tbb::blocked_range<Index>& range) {
+            for (Index r = range.begin(); r != range.end(); ++r) {
+                const Index i = touched_only ? touched[r] : r;
+                double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+                for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
+                    const double* v = sums + slot_stride * slots[j];
+                    s0 += v[0];
+                    s1 += v[1];
+                    s2 += v[2];
+                }
+                if (touched_only) {
+                    out[3 * i] = s0;
+                    out[3 * i + 1] = s1;
+                    out[3 * i + 2] = s2;
+                    continue;
+                }
+                const double* in = base != nullptr ? base + 3 * i : out + 3 * i;
+                out[3 * i] = in[0] + s0;
+                out[3 * i + 1] = in[1] + s1;
+                out[3 * i + 2] = in[2] + s2;
+            }
+        });
+}
+
+void LocalStep::project_chunks(const Model& model, const Eigen::Ref<const MatX3>& positions)
+{
+    const Index n = model.num_nodes();
+    MAT_CHECK(positions.rows() == n && positions.outerStride() == 3,
+        "local step: {} positions for a model of {} nodes (contiguous rows needed)",
+        positions.rows(), n);
     MAT_CHECK(m_num_tets == model.num_tets(), "local step: made for {} tets, model has {}",
         m_num_tets, model.num_tets());
-    MAT_CHECK(positions.outerStride() == 3 && rhs.outerStride() == 3,
-        "local step: positions and rhs must be contiguous rows");
     ProjectionParams params;
     params.volume_tolerance = model.volume_tolerance();
     params.limit_min = model.material().strain_limit_min;
@@ -333,7 +375,6 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
     params.exact = m_exact;
     constexpr int lanes = projection_lanes;
     const double* x = positions.data(); // row-major n x 3
-    double* out = rhs.data();
     double* slot_sums = m_slot_sums.data();
 
     // One block: gather F = Ds Dm^-1, project, scatter vol_e G_e^T target^T into rhs. With
@@ -381,34 +422,6 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
                     m_slot_sums.begin() + slot_stride * m_chunk_slots[c + 1], 0.0);
                 for (int b = m_chunk_blocks[c]; b < m_chunk_blocks[c + 1]; ++b)
                     run_block(b, f, target);
-            }
-        });
-    const double* sums = m_slot_sums.data();
-    const int* offsets = m_node_slot_offsets.data();
-    const int* slots = m_node_slots.data();
-    const int* touched = m_touched.data();
-    const Index count = touched_only ? static_cast<Index>(m_touched.size()) : n;
-    tbb::parallel_for(
-        tbb::blocked_range<Index>(0, count, 1024), [&](const tbb::blocked_range<Index>& range) {
-            for (Index r = range.begin(); r != range.end(); ++r) {
-                const Index i = touched_only ? touched[r] : r;
-                double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-                for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
-                    const double* v = sums + slot_stride * slots[j];
-                    s0 += v[0];
-                    s1 += v[1];
-                    s2 += v[2];
-                }
-                if (touched_only) {
-                    out[3 * i] = s0;
-                    out[3 * i + 1] = s1;
-                    out[3 * i + 2] = s2;
-                    continue;
-                }
-                const double* in = base != nullptr ? base + 3 * i : out + 3 * i;
-                out[3 * i] = in[0] + s0;
-                out[3 * i + 1] = in[1] + s1;
-                out[3 * i + 2] = in[2] + s2;
             }
         });
 }

@@ -35,6 +35,32 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     double strain_limit_min = 0.0,
     double strain_limit_max = std::numeric_limits<double>::infinity());
 
+/// The local step's sum as it stands after LocalStep::project(): row i of the right-hand side is
+/// base_i + the sum of node i's slots (slot s at sums[4 s], x y z), summed in slot order. Lets a
+/// consumer of the right-hand side (the reduced step's B^T y) read it node by node without it
+/// being written out first.
+struct LocalSums {
+    const double* base = nullptr; ///< n x 3 row-major
+    const double* sums = nullptr; ///< 4 doubles per slot
+    const int* offsets = nullptr; ///< n + 1: node i's slots are slots[offsets[i] .. offsets[i+1])
+    const int* slots = nullptr;
+
+    /// out = row i of the right-hand side.
+    void row(std::ptrdiff_t i, double (&out)[3]) const
+    {
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+        for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
+            const double* v = sums + 4 * static_cast<std::ptrdiff_t>(slots[j]);
+            s0 += v[0];
+            s1 += v[1];
+            s2 += v[2];
+        }
+        out[0] = base[3 * i] + s0;
+        out[1] = base[3 * i + 1] + s1;
+        out[2] = base[3 * i + 2] + s2;
+    }
+};
+
 /// Preallocated storage for the local step of one model: a step allocates nothing.
 ///
 /// Layout: tets in blocks of projection_lanes consecutive (Morton-ordered) tets, each block with
@@ -68,6 +94,15 @@ public:
     void assemble(const Model& model, const Eigen::Ref<const MatX3>& positions,
         const Eigen::Ref<const MatX3>& base, Eigen::Ref<MatX3> rhs);
 
+    /// The projections and the chunks' slot sums only: rhs = base + the sum is then read
+    /// through sums(base) (`base`  n x 3 contiguous, kept alive by the caller), the same values
+    /// as assemble() writes.
+    void project(const Model& model, const Eigen::Ref<const MatX3>& positions);
+    LocalSums sums(const double* base) const
+    {
+        return { base, m_slot_sums.data(), m_node_slot_offsets.data(), m_node_slots.data() };
+    }
+
     /// Number of chunks (for the benchmark's report).
     int num_chunks() const { return static_cast<int>(m_chunk_blocks.size()) - 1; }
 
@@ -83,6 +118,8 @@ private:
     /// on the touched nodes' rows only.
     void run(const Model& model, const Eigen::Ref<const MatX3>& positions, const double* base,
         Eigen::Ref<MatX3> rhs, bool touched_only = false);
+    /// The chunk loop of run(): projections into the slots.
+    void project_chunks(const Model& model, const Eigen::Ref<const MatX3>& positions);
 
     Index m_num_tets = 0;
     bool m_exact = true;
