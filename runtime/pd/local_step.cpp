@@ -313,11 +313,6 @@ void LocalStep::assemble(const Model& model, const Eigen::Ref<const MatX3>& posi
     run(model, positions, base.data(), rhs);
 }
 
-void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& positions)
-{
-    project_chunks(model, positions);
-}
-
 void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions,
     const double* base, Eigen::Ref<MatX3> rhs, bool touched_only)
 {
@@ -325,7 +320,7 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
     MAT_CHECK(rhs.rows() == n && rhs.outerStride() == 3,
         "local step: rhs has {} rows for a model of {} nodes (contiguous rows needed)", rhs.rows(),
         n);
-    project_chunks(model, positions);
+    project(model, positions);
     double* out = rhs.data();
     const double* sums = m_slot_sums.data();
     const int* offsets = m_node_slot_offsets.data();
@@ -357,7 +352,7 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
         });
 }
 
-void LocalStep::project_chunks(const Model& model, const Eigen::Ref<const MatX3>& positions)
+void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& positions)
 {
     const Index n = model.num_nodes();
     MAT_CHECK(positions.rows() == n && positions.outerStride() == 3,

@@ -118,8 +118,6 @@ private:
     /// on the touched nodes' rows only.
     void run(const Model& model, const Eigen::Ref<const MatX3>& positions, const double* base,
         Eigen::Ref<MatX3> rhs, bool touched_only = false);
-    /// The chunk loop of run(): projections into the slots.
-    void project_chunks(const Model& model, const Eigen::Ref<const MatX3>& positions);
 
     Index m_num_tets = 0;
     bool m_exact = true;

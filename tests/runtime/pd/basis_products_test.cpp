@@ -1,6 +1,7 @@
 // The reduced global step's products with the handle basis, B^T y and X + B q, against Eigen's
 // sparse products: in handle form (linear and mixed linear/quadratic handles of a real bake)
-// and through the plain CSR fallback when the basis is not in that form.
+// and through the plain CSR fallback when the basis is not in that form; B^T y with y read from
+// the local step's sums.
 #include <random>
 
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include "common/parallel.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/basis_products.hpp"
+#include "runtime/pd/local_step.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
 
 namespace mat {
@@ -39,6 +41,27 @@ namespace {
         EXPECT_LT((x[0] - expected_x).norm(), 1e-12 * expected_x.norm());
         EXPECT_EQ(bty[0], bty[1]);
         EXPECT_EQ(x[0], x[1]);
+
+        // B^T of the local step's right-hand side read from its sums (base y) is B^T of the
+        // assembled one, bit for bit, and so are the rows themselves.
+        const MatX3 positions = x[0];
+        LocalStep local(model, false);
+        MatX3 assembled(n, 3);
+        local.assemble(model, positions, y, assembled);
+        LocalStep fused(model, false);
+        fused.project(model, positions);
+        const LocalSums sums = fused.sums(y.data());
+        MatX3 rows(n, 3);
+        for (Index i = 0; i < n; ++i) {
+            double v[3];
+            sums.row(i, v);
+            rows.row(i) << v[0], v[1], v[2];
+        }
+        EXPECT_EQ(rows, assembled);
+        MatX3 from_sums(k, 3), from_rows(k, 3);
+        products.transpose_times(sums, from_sums.data());
+        products.transpose_times(assembled.data(), from_rows.data());
+        EXPECT_EQ(from_sums, from_rows);
     }
 
     TEST(BasisProducts, HandleFormMatchesTheSparseProducts)
