@@ -455,10 +455,10 @@ namespace {
             const bool first = d0 <= d1 && d0 <= d2;
             const bool second = !first && d1 <= d2;
             smallest[l] = first ? 0 : (second ? 1 : 2);
-            const double low = std::min(std::min(d0, d1), d2);
-            const double high = std::max(std::max(d0, d1), d2);
-            // Negated so that NaN fails the test below.
-            excess[l] = low > fast_min_ratio * fast_min_ratio * high ? -1.0 : 1.0;
+            const double least = fast_min_ratio * fast_min_ratio * std::max(std::max(d0, d1), d2);
+            // Each compared on its own so that a NaN anywhere fails the test below (std::max
+            // may drop one).
+            excess[l] = (d0 > least) & (d1 > least) & (d2 > least) ? -1.0 : 1.0;
         }
         if (!all_below(excess, 0.0))
             return false;
