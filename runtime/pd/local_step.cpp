@@ -23,9 +23,7 @@ namespace {
     /// a few threads; each chunk boundary duplicates the slots of the nodes it cuts).
     constexpr Index blocks_per_chunk = 48;
     constexpr Index max_chunks = 64;
-    /// Doubles per slot: x, y, z and one unused, so that a corner's share is one vector add.
-    constexpr std::size_t slot_stride = 4;
-    static_assert(slot_stride == 4, "LocalSums (local_step.hpp) reads 4 doubles per slot");
+    constexpr std::size_t slot_stride = local_slot_stride;
 
     /// p[c][k][l] = x[3 nodes[c][l] + k]: the corner positions of a block's tets, lanes
     /// contiguous. With AVX-512, one 8-lane gather per corner, coordinate and half block:
@@ -322,32 +320,20 @@ void LocalStep::run(const Model& model, const Eigen::Ref<const MatX3>& positions
         n);
     project(model, positions);
     double* out = rhs.data();
-    const double* sums = m_slot_sums.data();
-    const int* offsets = m_node_slot_offsets.data();
-    const int* slots = m_node_slots.data();
+    const LocalSums node_sums = sums(nullptr);
     const int* touched = m_touched.data();
     const Index count = touched_only ? static_cast<Index>(m_touched.size()) : n;
     tbb::parallel_for(
         tbb::blocked_range<Index>(0, count, 1024), [&](const tbb::blocked_range<Index>& range) {
             for (Index r = range.begin(); r != range.end(); ++r) {
                 const Index i = touched_only ? touched[r] : r;
-                double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-                for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
-                    const double* v = sums + slot_stride * slots[j];
-                    s0 += v[0];
-                    s1 += v[1];
-                    s2 += v[2];
-                }
-                if (touched_only) {
-                    out[3 * i] = s0;
-                    out[3 * i + 1] = s1;
-                    out[3 * i + 2] = s2;
-                    continue;
-                }
-                const double* in = base != nullptr ? base + 3 * i : out + 3 * i;
-                out[3 * i] = in[0] + s0;
-                out[3 * i + 1] = in[1] + s1;
-                out[3 * i + 2] = in[2] + s2;
+                double s[3];
+                node_sums.slot_sum(i, s);
+                const double* in = touched_only ? nullptr
+                    : base != nullptr           ? base + 3 * i
+                                                : out + 3 * i;
+                for (int c = 0; c < 3; ++c)
+                    out[3 * i + c] = in != nullptr ? in[c] + s[c] : s[c];
             }
         });
 }

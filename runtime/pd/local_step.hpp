@@ -35,29 +35,40 @@ TetProjection project_tet(const Mat3& deformation_gradient, double volume_tolera
     double strain_limit_min = 0.0,
     double strain_limit_max = std::numeric_limits<double>::infinity());
 
+/// Doubles per slot of the local step's sums: x, y, z and one unused (a corner's share is one
+/// vector add).
+inline constexpr std::ptrdiff_t local_slot_stride = 4;
+
 /// The local step's sum as it stands after LocalStep::project(): row i of the right-hand side is
-/// base_i + the sum of node i's slots (slot s at sums[4 s], x y z), summed in slot order. Lets a
-/// consumer of the right-hand side (the reduced step's B^T y) read it node by node without it
-/// being written out first.
+/// base_i + the sum of node i's slots, summed in slot order. Lets a consumer of the right-hand
+/// side (the reduced step's B^T y) read it node by node without it being written out first.
 struct LocalSums {
-    const double* base = nullptr; ///< n x 3 row-major
-    const double* sums = nullptr; ///< 4 doubles per slot
+    const double* base = nullptr; ///< n x 3 row-major (null: slot_sum only)
+    const double* sums = nullptr; ///< local_slot_stride doubles per slot
     const int* offsets = nullptr; ///< n + 1: node i's slots are slots[offsets[i] .. offsets[i+1])
     const int* slots = nullptr;
 
-    /// out = row i of the right-hand side.
-    void row(std::ptrdiff_t i, double (&out)[3]) const
+    /// out = the sum of node i's slots.
+    void slot_sum(std::ptrdiff_t i, double (&out)[3]) const
     {
         double s0 = 0.0, s1 = 0.0, s2 = 0.0;
         for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
-            const double* v = sums + 4 * static_cast<std::ptrdiff_t>(slots[j]);
+            const double* v = sums + local_slot_stride * slots[j];
             s0 += v[0];
             s1 += v[1];
             s2 += v[2];
         }
-        out[0] = base[3 * i] + s0;
-        out[1] = base[3 * i + 1] + s1;
-        out[2] = base[3 * i + 2] + s2;
+        out[0] = s0;
+        out[1] = s1;
+        out[2] = s2;
+    }
+    /// out = row i of the right-hand side.
+    void row(std::ptrdiff_t i, double (&out)[3]) const
+    {
+        slot_sum(i, out);
+        out[0] += base[3 * i];
+        out[1] += base[3 * i + 1];
+        out[2] += base[3 * i + 2];
     }
 };
 
