@@ -225,14 +225,14 @@ LocalStep::LocalStep(const Model& model, bool exact, const std::vector<int>& ids
     for (Index b = 0; b < num_blocks; ++b) {
         Block& block = m_blocks[b];
         const Index first = b * lanes;
-        block.count = static_cast<int>(std::min<Index>(lanes, t - first));
+        const int count = static_cast<int>(std::min<Index>(lanes, t - first)); // real tets
         for (int l = 0; l < lanes; ++l) {
-            const Index e = ids[first + (l < block.count ? l : 0)];
+            const Index e = ids[first + (l < count ? l : 0)];
             for (int c = 0; c < 4; ++c)
                 block.nodes[c][l] = tets(e, c);
             for (int i = 0; i < 9; ++i)
                 block.dm_inverse[i][l] = dm_inverse(e, i);
-            block.volume[l] = l < block.count ? volumes(e) : 0.0;
+            block.volume[l] = l < count ? volumes(e) : 0.0;
         }
     }
 

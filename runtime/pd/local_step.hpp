@@ -123,7 +123,6 @@ private:
         double volume[projection_lanes]; ///< rest volume, 0 on padding lanes
         int nodes[4][projection_lanes]; ///< corner nodes; padding lanes repeat lane 0
         int slots[4][projection_lanes]; ///< the corners' slots in the block's chunk
-        int count = 0; ///< real tets in the block
     };
     /// rhs = (base or rhs) + the sum; `base` null means rhs itself. `touched_only`: rhs = the sum
     /// on the touched nodes' rows only.
