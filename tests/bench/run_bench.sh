@@ -4,12 +4,17 @@
 # sample creature at about 50k tets with about 150 handles, on the threads given (default 2),
 # with the time per phase and the peak RSS of each.
 # The creature falls freely (no ground: this measures the solver; contact is issue 5's bench).
-# Usage: tests/bench/run_bench.sh [BUILD_DIR] [THREADS] [STEPS]
+# The solvers run in turn, ROUNDS times (default 5): the VM's speed drifts by 15-50% over
+# seconds to minutes, so one run of each can land in different states. Prints each solver's
+# phase table from the last round, then per round and over the rounds (median, min, max) the
+# ms per step and the full / semi ratio of the same round.
+# Usage: tests/bench/run_bench.sh [BUILD_DIR] [THREADS] [STEPS] [ROUNDS]
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${1:-$root/build}"
 threads="${2:-2}"
 steps="${3:-30}"
+rounds="${4:-5}"
 bake="$build/preprocess/mat-bake"
 run="$build/runtime/mat-run"
 work="$(mktemp -d)"
@@ -30,8 +35,44 @@ cat > "$work/scene.json" <<SCENE
   "output": { "format": "obj", "every": $steps }
 }
 SCENE
-for solver in semi full hyper; do
-    echo "== $solver, $threads threads, $steps steps"
-    "$run" --log-level info --threads "$threads" "$work/scene.json" -o "$work/out-$solver" \
-        --solver "$solver" 2>&1 | grep -v "^\[info\] .*scene.json"
+solvers=(semi full hyper)
+for ((round = 1; round <= rounds; ++round)); do
+    for solver in "${solvers[@]}"; do
+        "$run" --log-level info --threads "$threads" "$work/scene.json" -o "$work/out-$solver" \
+            --solver "$solver" 2>&1 | grep -v "^\[info\] .*scene.json" > "$work/log-$solver"
+        # The phase table's last row: "total  seconds  ms/step  100.0".
+        awk -v r="$round" -v s="$solver" '/^total / {print r, s, $3}' "$work/log-$solver" \
+            >> "$work/rounds"
+    done
 done
+for solver in "${solvers[@]}"; do
+    echo "== $solver, $threads threads, $steps steps (round $rounds of $rounds)"
+    cat "$work/log-$solver"
+done
+echo "== ms per step over $rounds rounds ($threads threads, $steps steps, 10 iterations)"
+awk -v n="$rounds" '
+    { t[$2, $1] = $3 }
+    function median(a, k,    i, j, x) { # sorts a[1..k] (insertion), returns the median
+        for (i = 2; i <= k; ++i) { x = a[i]; for (j = i - 1; j >= 1 && a[j] > x; --j) a[j + 1] = a[j]; a[j + 1] = x }
+        return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+    }
+    END {
+        printf "%-6s", "round"; printf "%10s%10s%10s%12s\n", "semi", "full", "hyper", "full/semi"
+        for (r = 1; r <= n; ++r) {
+            ratio[r] = t["full", r] / t["semi", r]
+            printf "%-6d%10.2f%10.2f%10.2f%12.2f\n", r, t["semi", r], t["full", r], t["hyper", r], ratio[r]
+        }
+        split("semi full hyper", names, " ")
+        for (stat = 1; stat <= 3; ++stat) {
+            label = stat == 1 ? "median" : stat == 2 ? "min" : "max"
+            printf "%-6s", label
+            for (s = 1; s <= 3; ++s) {
+                for (r = 1; r <= n; ++r) v[r] = t[names[s], r]
+                m = median(v, n)
+                printf "%10.2f", stat == 1 ? m : stat == 2 ? v[1] : v[n]
+            }
+            for (r = 1; r <= n; ++r) v[r] = ratio[r]
+            m = median(v, n)
+            printf "%12.2f\n", stat == 1 ? m : stat == 2 ? v[1] : v[n]
+        }
+    }' "$work/rounds"
