@@ -215,13 +215,19 @@ void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states
 
     // 1. Bounds, and the surfaces, nodes and primitives in world coordinates, except for the
     //    bodies that have not moved.
+    //    The bodies in parallel (and each body's loops in parallel inside): a body's loops are
+    //    too short to keep two threads busy, and its results do not depend on the split.
     Timer timer;
-    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-        if (states[b].reuse_bounds && m_bodies[b].has_bounds)
-            continue;
-        update_body(b, states[b], m_margin);
-        ++m_report.updated_bodies;
-    }
+    m_updated.clear();
+    for (std::size_t b = 0; b < m_bodies.size(); ++b)
+        if (!(states[b].reuse_bounds && m_bodies[b].has_bounds))
+            m_updated.push_back(b);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_updated.size(), 1),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                update_body(m_updated[k], states[m_updated[k]], m_margin);
+        });
+    m_report.updated_bodies = static_cast<int>(m_updated.size());
     m_report.bounds_seconds = timer.seconds();
 }
 

@@ -164,6 +164,7 @@ private:
 
     CollisionSettings m_settings;
     std::vector<Body> m_bodies;
+    std::vector<std::size_t> m_updated; ///< the bodies whose bounds this step recomputes
     void update_body(std::size_t b, const CollisionBodyState& state, double margin);
     void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
     void respond(const std::vector<CollisionBodyState>& states);
