@@ -12,8 +12,9 @@ namespace mat {
 
 namespace {
 
-    // Items per chunk of the pair search: the unit of parallel work and of output buffering.
-    constexpr int chunk_items = 32;
+    // The pair search runs over this many ranges of buckets (each with its own output; one
+    // more chunk takes the oversize items): the unit of parallel work.
+    constexpr std::size_t bucket_chunks = 64;
     // Cell coordinates beyond this magnitude (in cells) go to the oversize list, so that the
     // integer arithmetic below never overflows.
     constexpr double max_cell_coordinate = 0x1p61;
@@ -94,10 +95,7 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
             throw_error("spatial hash: item {} (body {}, primitive {}) has a NaN box coordinate", i,
                 items[i].body, items[i].primitive);
     m_slots.resize(n);
-    m_body_major = true;
     for (std::size_t i = 0; i < n; ++i) {
-        if (i > 0 && items[i].body < items[i - 1].body)
-            m_body_major = false;
         Slot& slot = m_slots[i];
         slot.box = items[i].box;
         slot.body = items[i].body;
@@ -168,152 +166,155 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
         table *= 2;
     m_mask = table - 1;
 
-    // Each item's distinct buckets (two of its cells may share one), each with the item's start
-    // mask there (bit k: a cell of the item in this bucket is its first along axis k; OR-ed
-    // over its cells in the bucket), then a CSR by (bucket, mask) with the items in increasing
-    // order. A pair is reported from the cell c holding the low corner of the two boxes'
-    // intersection, so along every axis where c is past the scanning item's first cell, the
-    // other item must start at c: the groups without those bits need no scan.
+    // An entry per (item, cell), keyed by (bucket, start mask), then a counting sort by key:
+    // within a key the items increase.
     m_table = table;
-    m_scratch.clear();
-    m_item_offsets.assign(n + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t begin = m_scratch.size();
-        if (m_slots[i].state == 1) {
-            const Slot& r = m_slots[i];
-            for (std::int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
-                for (std::int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
-                    for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x) {
-                        const std::size_t mask = (x == r.lo[0] ? 1u : 0u) | (y == r.lo[1] ? 2u : 0u)
-                            | (z == r.lo[2] ? 4u : 0u);
-                        m_scratch.push_back(bucket(x, y, z) * start_groups + mask);
-                    }
-            std::sort(m_scratch.begin() + static_cast<std::ptrdiff_t>(begin), m_scratch.end());
-            // One key per bucket, masks OR-ed.
-            std::size_t kept = begin;
-            for (std::size_t e = begin; e < m_scratch.size(); ++e) {
-                if (kept > begin
-                    && m_scratch[kept - 1] / start_groups == m_scratch[e] / start_groups)
-                    m_scratch[kept - 1] |= m_scratch[e] % start_groups;
-                else
-                    m_scratch[kept++] = m_scratch[e];
-            }
-            m_scratch.resize(kept);
-        }
-        m_item_offsets[i + 1] = m_scratch.size();
-    }
     const std::size_t keys = table * start_groups;
     m_bucket_start.assign(keys + 1, 0);
-    for (const std::size_t key : m_scratch)
+    m_keys.clear();
+    // visit(i, x, y, z) for every cell of every hashed item, items in order.
+    const auto for_each_cell = [&](const auto& visit) {
+        for (std::size_t i = 0; i < n; ++i) {
+            const Slot& r = m_slots[i];
+            if (r.state != 1)
+                continue;
+            for (std::int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
+                for (std::int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
+                    for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x)
+                        visit(i, x, y, z);
+        }
+    };
+    for_each_cell([&](std::size_t i, std::int64_t x, std::int64_t y, std::int64_t z) {
+        const Slot& r = m_slots[i];
+        const std::size_t mask
+            = (x == r.lo[0] ? 1u : 0u) | (y == r.lo[1] ? 2u : 0u) | (z == r.lo[2] ? 4u : 0u);
+        const std::size_t key = bucket(x, y, z) * start_groups + mask;
+        m_keys.push_back(key);
         ++m_bucket_start[key + 1];
+    });
     for (std::size_t key = 0; key < keys; ++key)
         m_bucket_start[key + 1] += m_bucket_start[key];
-    m_entries.resize(m_scratch.size());
+    m_entries.resize(m_keys.size());
     m_fill.assign(m_bucket_start.begin(), m_bucket_start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Slot& slot = m_slots[i];
-        for (std::size_t e = m_item_offsets[i]; e < m_item_offsets[i + 1]; ++e)
-            m_entries[static_cast<std::size_t>(m_fill[m_scratch[e]]++)]
-                = { slot.lo, slot.box, static_cast<int>(i), slot.body, slot.spheres };
+    std::size_t e = 0;
+    for_each_cell([&](std::size_t i, std::int64_t x, std::int64_t y, std::int64_t z) {
+        const Slot& r = m_slots[i];
+        m_entries[static_cast<std::size_t>(m_fill[m_keys[e++]]++)]
+            = { { x, y, z }, r.box, static_cast<int>(i), r.body, r.spheres };
+    });
+}
+
+void SpatialHash::bucket_pairs(
+    std::size_t first, std::size_t last, std::vector<ItemPair>& out) const
+{
+    const bool self = m_settings.self_pairs;
+    const Entry* entries = m_entries.data();
+    const int* start = m_bucket_start.data();
+    // p and q pair when they are for the same cell (a bucket can hold several) and their boxes
+    // overlap; the start masks of their groups already make the cell the canonical one.
+    const auto test = [&](const Entry& p, const Entry& q) {
+        if ((p.cell[0] == q.cell[0]) & (p.cell[1] == q.cell[1]) & (p.cell[2] == q.cell[2])
+                & boxes_overlap(p.box, q.box) & (self | (p.body != q.body))
+            && tags_allowed(p.body, p.spheres, q.body, q.spheres))
+            out.emplace_back(std::min(p.item, q.item), std::max(p.item, q.item));
+    };
+    for (std::size_t b = first; b < last; ++b) {
+        const int* group = start + b * start_groups; // group g: [group[g], group[g + 1])
+        if (group[0] == group[start_groups])
+            continue;
+        // Mask 7 (the cell is the box's first on every axis) pairs with every group, itself
+        // included (each pair once); otherwise g with h when g | h == 7, g < h.
+        for (int p = group[7]; p < group[8]; ++p) {
+            for (int q = p + 1; q < group[8]; ++q)
+                test(entries[p], entries[q]);
+            for (int q = group[0]; q < group[7]; ++q)
+                test(entries[p], entries[q]);
+        }
+        for (int g = 1; g < 7; ++g)
+            for (int h = g + 1; h < 7; ++h) {
+                if ((g | h) != 7)
+                    continue;
+                for (int p = group[g]; p < group[g + 1]; ++p)
+                    for (int q = group[h]; q < group[h + 1]; ++q)
+                        test(entries[p], entries[q]);
+            }
     }
 }
 
-void SpatialHash::item_pairs(int i, std::vector<ItemPair>& out) const
+void SpatialHash::oversize_pairs(std::vector<ItemPair>& out) const
 {
-    const Slot& a = m_slots[static_cast<std::size_t>(i)];
-    if (a.state == 0)
-        return;
-    const std::size_t first = out.size();
+    // Each oversize item against every other non-empty item, except the earlier oversize ones
+    // (that pair comes from the earlier one).
     const bool self = m_settings.self_pairs;
-    const bool skip_own_body = !self && m_body_major;
-    const auto consider = [&](int j) {
-        const Slot& b = m_slots[static_cast<std::size_t>(j)];
-        if (boxes_overlap(a.box, b.box) && (self || a.body != b.body)
-            && tags_allowed(a.body, a.spheres, b.body, b.spheres))
-            out.emplace_back(i, j);
-    };
-
-    if (a.state == 2) {
-        // Oversize: against every later item.
-        for (std::size_t j = static_cast<std::size_t>(i) + 1; j < m_slots.size(); ++j)
-            if (m_slots[j].state != 0)
-                consider(static_cast<int>(j));
-        return;
+    const int n = static_cast<int>(m_slots.size());
+    for (const int o : m_oversize) {
+        const Slot& a = m_slots[static_cast<std::size_t>(o)];
+        for (int j = 0; j < n; ++j) {
+            const Slot& b = m_slots[static_cast<std::size_t>(j)];
+            if (b.state == 0 || j == o || (b.state == 2 && j < o))
+                continue;
+            if (boxes_overlap(a.box, b.box) && (self || a.body != b.body)
+                && tags_allowed(a.body, a.spheres, b.body, b.spheres))
+                out.emplace_back(std::min(o, j), std::max(o, j));
+        }
     }
-
-    for (std::int64_t z = a.lo[2]; z <= a.hi[2]; ++z)
-        for (std::int64_t y = a.lo[1]; y <= a.hi[1]; ++y)
-            for (std::int64_t x = a.lo[0]; x <= a.hi[0]; ++x) {
-                const std::size_t b = bucket(x, y, z);
-                // The start bits the other item needs here (see build()).
-                const std::size_t required
-                    = (x > a.lo[0] ? 1u : 0u) | (y > a.lo[1] ? 2u : 0u) | (z > a.lo[2] ? 4u : 0u);
-                for (std::size_t group = 0; group < start_groups; ++group) {
-                    if ((group & required) != required)
-                        continue;
-                    const std::size_t key = b * start_groups + group;
-                    const auto begin = m_entries.begin() + m_bucket_start[key];
-                    const auto end = m_entries.begin() + m_bucket_start[key + 1];
-                    if (begin == end)
-                        continue;
-                    // Later items only; each pair is reported from the cell holding the low
-                    // corner of the intersection of the two boxes (a cell both boxes cover).
-                    auto it = std::upper_bound(
-                        begin, end, i, [](int item, const Entry& e) { return item < e.item; });
-                    // Without self pairs, items numbered body by body: skip to the later bodies.
-                    if (skip_own_body)
-                        it = std::upper_bound(it, end, a.body,
-                            [](int body, const Entry& e) { return body < e.body; });
-                    for (; it != end; ++it) {
-                        // One branch for both tests (each alone is a coin toss for the
-                        // predictor). Still needed: cells that share a bucket.
-                        const bool canonical = (std::max(a.lo[0], it->lo[0]) == x)
-                            & (std::max(a.lo[1], it->lo[1]) == y)
-                            & (std::max(a.lo[2], it->lo[2]) == z);
-                        if (canonical & boxes_overlap(a.box, it->box)
-                                & (self | (a.body != it->body))
-                            && tags_allowed(a.body, a.spheres, it->body, it->spheres))
-                            out.emplace_back(i, it->item);
-                    }
-                }
-            }
-    for (auto it = std::upper_bound(m_oversize.begin(), m_oversize.end(), i);
-         it != m_oversize.end(); ++it)
-        consider(*it);
-    std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
 }
 
 void SpatialHash::pairs(std::vector<ItemPair>& out)
 {
     out.clear();
-    const int n = static_cast<int>(m_slots.size());
-    const int chunks = (n + chunk_items - 1) / chunk_items;
-    if (static_cast<int>(m_chunk_pairs.size()) < chunks)
-        m_chunk_pairs.resize(static_cast<std::size_t>(chunks));
-    const auto run_chunk = [&](int c) {
-        std::vector<ItemPair>& chunk = m_chunk_pairs[static_cast<std::size_t>(c)];
+    const std::size_t chunks = bucket_chunks + 1;
+    if (m_chunk_pairs.size() < chunks)
+        m_chunk_pairs.resize(chunks);
+    const auto run_chunk = [&](std::size_t c) {
+        std::vector<ItemPair>& chunk = m_chunk_pairs[c];
         chunk.clear();
-        const int end = std::min(n, (c + 1) * chunk_items);
-        for (int i = c * chunk_items; i < end; ++i)
-            item_pairs(i, chunk);
+        if (c < bucket_chunks)
+            bucket_pairs(c * m_table / bucket_chunks, (c + 1) * m_table / bucket_chunks, chunk);
+        else
+            oversize_pairs(chunk);
     };
-    if (n < m_settings.parallel_threshold) {
-        for (int c = 0; c < chunks; ++c)
+    if (static_cast<int>(m_slots.size()) < m_settings.parallel_threshold) {
+        for (std::size_t c = 0; c < chunks; ++c)
             run_chunk(c);
     } else {
-        tbb::parallel_for(tbb::blocked_range<int>(0, chunks, 1), [&](const auto& range) {
-            for (int c = range.begin(); c < range.end(); ++c)
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+            for (std::size_t c = range.begin(); c < range.end(); ++c)
                 run_chunk(c);
         });
     }
-    // Chunks hold increasing items and each item's pairs are sorted: concatenation is sorted.
+    // Sorted by (first, second): two stable counting sorts (by second item, then by first), each
+    // pair found once.
+    const std::size_t n = m_slots.size();
     std::size_t total = 0;
-    for (int c = 0; c < chunks; ++c)
-        total += m_chunk_pairs[static_cast<std::size_t>(c)].size();
-    out.reserve(total);
-    for (int c = 0; c < chunks; ++c)
-        out.insert(out.end(), m_chunk_pairs[static_cast<std::size_t>(c)].begin(),
-            m_chunk_pairs[static_cast<std::size_t>(c)].end());
+    for (std::size_t c = 0; c < chunks; ++c)
+        total += m_chunk_pairs[c].size();
+    m_unsorted.resize(total);
+    out.resize(total);
+    // visit(f) calls f on each pair of the source; key(pair) is the item to sort by.
+    const auto counting_sort = [&](const auto& visit, std::vector<ItemPair>& target, auto key) {
+        m_counts.assign(n + 1, 0);
+        visit([&](const ItemPair& pair) { ++m_counts[static_cast<std::size_t>(key(pair)) + 1]; });
+        for (std::size_t i = 0; i < n; ++i)
+            m_counts[i + 1] += m_counts[i];
+        visit([&](const ItemPair& pair) {
+            target[static_cast<std::size_t>(m_counts[static_cast<std::size_t>(key(pair))]++)]
+                = pair;
+        });
+    };
+    counting_sort(
+        [&](const auto& f) {
+            for (std::size_t c = 0; c < chunks; ++c)
+                for (const ItemPair& pair : m_chunk_pairs[c])
+                    f(pair);
+        },
+        m_unsorted, [](const ItemPair& pair) { return pair.second; });
+    counting_sort(
+        [&](const auto& f) {
+            for (const ItemPair& pair : m_unsorted)
+                f(pair);
+        },
+        out, [](const ItemPair& pair) { return pair.first; });
 }
 
 std::vector<ItemPair> SpatialHash::pairs()

@@ -9,12 +9,14 @@
 // covers; the cells are hashed into a table whose size follows the number of entries, never the
 // extent of the scene, so memory stays bounded when bodies fly apart. A box covering more than
 // max_cells_per_item cells (or too far out for integer cell coordinates) goes to an oversize
-// list that is checked against every item. A pair sharing several cells is reported once, from
-// the cell that holds the low corner of the boxes' intersection.
+// list that is checked against every item.
 //
-// Without self pairs, and with the items numbered body by body (as the collision world does), the
-// scan of a bucket skips to the entries of the later bodies: the buckets away from contact, which
-// hold one body, cost a binary search each.
+// A pair sharing several cells is reported once, from the cell that holds the low corner of the
+// boxes' intersection: there, on every axis, one of the two boxes starts. Each entry records on
+// which axes its cell is its box's first (its start mask, 0 to 7), and a bucket keeps its
+// entries in 8 groups by start mask. The pairs are found bucket by bucket, between the groups
+// whose masks together cover the three axes only (7 with every group; 1-6, 2-5, 3-4, 3-5, 3-6,
+// 5-6): entries that cannot pair in this cell are never compared, and no search is needed.
 //
 // Results are sorted and unique and do not depend on the thread count. Buffers are members and
 // are reused from one call to the next.
@@ -54,8 +56,7 @@ struct SpatialHashSettings {
     /// Boxes covering more cells than this are checked against every item instead.
     int max_cells_per_item = 64;
     /// Below this many items the pair search runs on the calling thread (the result is the same
-    /// either way). With chunks of 32 items and the start-mask groups, 2 threads took the
-    /// collision bench's 534 items from 0.56-0.62 to 0.43-0.48 ms (3 alternated runs).
+    /// either way).
     int parallel_threshold = 256;
     /// Whether pairs of items of the same body are reported (self-collision candidates).
     bool self_pairs = true;
@@ -82,20 +83,19 @@ public:
     std::size_t num_oversize() const { return m_oversize.size(); }
 
 private:
-    /// An item as the pair search reads it: the fields read for every candidate come first.
     struct Slot {
-        std::array<std::int64_t, 3> lo; ///< lowest cell covered
         Box3 box;
         int body;
         std::array<int, 3> spheres;
+        std::array<std::int64_t, 3> lo; ///< lowest cell covered
         std::array<std::int64_t, 3> hi; ///< highest cell covered
         char state; ///< 0 empty box, 1 hashed, 2 oversize
     };
 
-    /// A hashed item as stored in each of its buckets (a copy of what the scan reads, so that
-    /// a bucket is scanned in contiguous memory).
+    /// One cell of one hashed item, as stored in the cell's bucket: what the pair test reads,
+    /// so that a bucket is scanned in contiguous memory.
     struct Entry {
-        std::array<std::int64_t, 3> lo;
+        std::array<std::int64_t, 3> cell;
         Box3 box;
         int item;
         int body;
@@ -103,24 +103,27 @@ private:
     };
 
     std::size_t bucket(std::int64_t x, std::int64_t y, std::int64_t z) const;
-    void item_pairs(int i, std::vector<ItemPair>& out) const;
+    /// The pairs found in buckets [first, last), appended to `out` (unsorted).
+    void bucket_pairs(std::size_t first, std::size_t last, std::vector<ItemPair>& out) const;
+    /// The pairs with an oversize item, appended to `out` (unsorted).
+    void oversize_pairs(std::vector<ItemPair>& out) const;
 
     SpatialHashSettings m_settings;
     double m_cell_size = 0.0;
-    bool m_body_major = true; ///< the items' bodies do not decrease (then a bucket is body-major)
     std::vector<Slot> m_slots; ///< per item
     std::vector<int> m_oversize; ///< oversize items, increasing
     std::uint64_t m_mask = 0; ///< table size - 1 (a power of two)
-    /// Groups per bucket: the 8 start masks (bit k: the entry's item starts there on axis k).
+    /// Groups per bucket: the 8 start masks.
     static constexpr std::size_t start_groups = 8;
     std::size_t m_table = 0; ///< buckets
     std::vector<int> m_bucket_start; ///< buckets x start_groups + 1, CSR over (bucket, mask)
-    std::vector<Entry> m_entries; ///< by bucket, increasing item within a bucket
+    std::vector<Entry> m_entries; ///< by bucket and mask, increasing item within a group
     std::vector<double> m_extents; ///< largest box extents, for the median
-    std::vector<std::size_t> m_scratch; ///< each item's distinct (bucket, mask) keys
-    std::vector<std::size_t> m_item_offsets; ///< #items + 1, CSR into m_scratch
+    std::vector<std::size_t> m_keys; ///< per entry in item order, its (bucket, mask) key
     std::vector<int> m_fill; ///< per key, scatter cursors
-    std::vector<std::vector<ItemPair>> m_chunk_pairs; ///< per chunk of items, reused
+    std::vector<std::vector<ItemPair>> m_chunk_pairs; ///< per chunk of buckets, reused
+    std::vector<ItemPair> m_unsorted; ///< the chunks' pairs, then by second item (radix sort)
+    std::vector<int> m_counts; ///< per item, the radix sort's counts
 };
 
 /// Reference: every allowed pair with overlapping closed boxes, by testing all n^2/2 pairs.
