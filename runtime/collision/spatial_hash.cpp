@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -197,27 +201,93 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
     m_entries.resize(m_keys.size());
     m_fill.assign(m_bucket_start.begin(), m_bucket_start.end() - 1);
     std::size_t e = 0;
+    Entries& to = m_entries;
     for_each_cell([&](std::size_t i, std::int64_t x, std::int64_t y, std::int64_t z) {
         const Slot& r = m_slots[i];
-        m_entries[static_cast<std::size_t>(m_fill[m_keys[e++]]++)]
-            = { { x, y, z }, r.box, static_cast<int>(i), r.body, r.spheres };
+        const std::size_t k = static_cast<std::size_t>(m_fill[m_keys[e++]]++);
+        to.cell[0][k] = x;
+        to.cell[1][k] = y;
+        to.cell[2][k] = z;
+        for (int a = 0; a < 3; ++a) {
+            to.lo[static_cast<std::size_t>(a)][k] = r.box.min()[a];
+            to.hi[static_cast<std::size_t>(a)][k] = r.box.max()[a];
+        }
+        to.item[k] = static_cast<int>(i);
+        to.body[k] = r.body;
+        to.spheres[k] = r.spheres;
     });
+}
+
+void SpatialHash::Entries::resize(std::size_t n)
+{
+    for (int a = 0; a < 3; ++a) {
+        cell[static_cast<std::size_t>(a)].resize(n);
+        lo[static_cast<std::size_t>(a)].resize(n);
+        hi[static_cast<std::size_t>(a)].resize(n);
+    }
+    item.resize(n);
+    body.resize(n);
+    spheres.resize(n);
+}
+
+void SpatialHash::entry_pairs(int p, int first, int last, std::vector<ItemPair>& out) const
+{
+    // p and q pair when they are for the same cell (a bucket can hold several), their boxes
+    // overlap and their bodies and spheres allow it; the start masks of their groups already
+    // make the cell the canonical one.
+    const Entries& e = m_entries;
+    const bool self = m_settings.self_pairs;
+    const std::size_t sp = static_cast<std::size_t>(p);
+    const auto emit = [&](int q) {
+        const std::size_t sq = static_cast<std::size_t>(q);
+        if (tags_allowed(e.body[sp], e.spheres[sp], e.body[sq], e.spheres[sq]))
+            out.emplace_back(std::min(e.item[sp], e.item[sq]), std::max(e.item[sp], e.item[sq]));
+    };
+#if defined(__AVX512F__)
+    // Eight candidates at a time: one mask from the cell, box and body comparisons.
+    __m512i cell[3];
+    __m512d lo[3], hi[3];
+    for (std::size_t a = 0; a < 3; ++a) {
+        cell[a] = _mm512_set1_epi64(e.cell[a][sp]);
+        lo[a] = _mm512_set1_pd(e.lo[a][sp]);
+        hi[a] = _mm512_set1_pd(e.hi[a][sp]);
+    }
+    const __m256i body = _mm256_set1_epi32(e.body[sp]);
+    for (int q = first; q < last; q += 8) {
+        const __mmask8 live = static_cast<__mmask8>(last - q >= 8 ? 0xFF : (1u << (last - q)) - 1u);
+        __mmask8 m = live;
+        for (std::size_t a = 0; a < 3; ++a) {
+            m = _mm512_mask_cmpeq_epi64_mask(
+                m, cell[a], _mm512_maskz_loadu_epi64(live, e.cell[a].data() + q));
+            // q.lo <= p.hi and p.lo <= q.hi
+            m = _mm512_mask_cmp_pd_mask(
+                m, _mm512_maskz_loadu_pd(live, e.lo[a].data() + q), hi[a], _CMP_LE_OQ);
+            m = _mm512_mask_cmp_pd_mask(
+                m, lo[a], _mm512_maskz_loadu_pd(live, e.hi[a].data() + q), _CMP_LE_OQ);
+        }
+        if (!self)
+            m = _mm256_mask_cmpneq_epi32_mask(
+                m, body, _mm256_maskz_loadu_epi32(live, e.body.data() + q));
+        for (unsigned bits = m; bits != 0; bits &= bits - 1)
+            emit(q + __builtin_ctz(bits));
+    }
+#else
+    for (int q = first; q < last; ++q) {
+        const std::size_t sq = static_cast<std::size_t>(q);
+        bool hit = self || e.body[sp] != e.body[sq];
+        for (std::size_t a = 0; a < 3; ++a)
+            hit &= (e.cell[a][sp] == e.cell[a][sq]) & (e.lo[a][sq] <= e.hi[a][sp])
+                & (e.lo[a][sp] <= e.hi[a][sq]);
+        if (hit)
+            emit(q);
+    }
+#endif
 }
 
 void SpatialHash::bucket_pairs(
     std::size_t first, std::size_t last, std::vector<ItemPair>& out) const
 {
-    const bool self = m_settings.self_pairs;
-    const Entry* entries = m_entries.data();
     const int* start = m_bucket_start.data();
-    // p and q pair when they are for the same cell (a bucket can hold several) and their boxes
-    // overlap; the start masks of their groups already make the cell the canonical one.
-    const auto test = [&](const Entry& p, const Entry& q) {
-        if ((p.cell[0] == q.cell[0]) & (p.cell[1] == q.cell[1]) & (p.cell[2] == q.cell[2])
-                & boxes_overlap(p.box, q.box) & (self | (p.body != q.body))
-            && tags_allowed(p.body, p.spheres, q.body, q.spheres))
-            out.emplace_back(std::min(p.item, q.item), std::max(p.item, q.item));
-    };
     for (std::size_t b = first; b < last; ++b) {
         const int* group = start + b * start_groups; // group g: [group[g], group[g + 1])
         if (group[0] == group[start_groups])
@@ -225,19 +295,14 @@ void SpatialHash::bucket_pairs(
         // Mask 7 (the cell is the box's first on every axis) pairs with every group, itself
         // included (each pair once); otherwise g with h when g | h == 7, g < h.
         for (int p = group[7]; p < group[8]; ++p) {
-            for (int q = p + 1; q < group[8]; ++q)
-                test(entries[p], entries[q]);
-            for (int q = group[0]; q < group[7]; ++q)
-                test(entries[p], entries[q]);
+            entry_pairs(p, p + 1, group[8], out);
+            entry_pairs(p, group[0], group[7], out);
         }
         for (int g = 1; g < 7; ++g)
-            for (int h = g + 1; h < 7; ++h) {
-                if ((g | h) != 7)
-                    continue;
-                for (int p = group[g]; p < group[g + 1]; ++p)
-                    for (int q = group[h]; q < group[h + 1]; ++q)
-                        test(entries[p], entries[q]);
-            }
+            for (int h = g + 1; h < 7; ++h)
+                if ((g | h) == 7)
+                    for (int p = group[g]; p < group[g + 1]; ++p)
+                        entry_pairs(p, group[h], group[h + 1], out);
     }
 }
 

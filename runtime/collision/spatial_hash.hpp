@@ -92,19 +92,23 @@ private:
         char state; ///< 0 empty box, 1 hashed, 2 oversize
     };
 
-    /// One cell of one hashed item, as stored in the cell's bucket: what the pair test reads,
-    /// so that a bucket is scanned in contiguous memory.
-    struct Entry {
-        std::array<std::int64_t, 3> cell;
-        Box3 box;
-        int item;
-        int body;
-        std::array<int, 3> spheres;
+    /// The entries (one per cell of each hashed item) in bucket order, structure of arrays so
+    /// that one entry is tested against several at once: its cell, box, item, body and spheres.
+    struct Entries {
+        std::array<std::vector<std::int64_t>, 3> cell;
+        std::array<std::vector<double>, 3> lo, hi;
+        std::vector<int> item, body;
+        std::vector<std::array<int, 3>> spheres;
+
+        std::size_t size() const { return item.size(); }
+        void resize(std::size_t n);
     };
 
     std::size_t bucket(std::int64_t x, std::int64_t y, std::int64_t z) const;
     /// The pairs found in buckets [first, last), appended to `out` (unsorted).
     void bucket_pairs(std::size_t first, std::size_t last, std::vector<ItemPair>& out) const;
+    /// The pairs of entry p with the entries [first, last) (all in one bucket), appended to `out`.
+    void entry_pairs(int p, int first, int last, std::vector<ItemPair>& out) const;
     /// The pairs with an oversize item, appended to `out` (unsorted).
     void oversize_pairs(std::vector<ItemPair>& out) const;
 
@@ -117,7 +121,7 @@ private:
     static constexpr std::size_t start_groups = 8;
     std::size_t m_table = 0; ///< buckets
     std::vector<int> m_bucket_start; ///< buckets x start_groups + 1, CSR over (bucket, mask)
-    std::vector<Entry> m_entries; ///< by bucket and mask, increasing item within a group
+    Entries m_entries; ///< by bucket and mask, increasing item within a group
     std::vector<double> m_extents; ///< largest box extents, for the median
     std::vector<std::size_t> m_keys; ///< per entry in item order, its (bucket, mask) key
     std::vector<int> m_fill; ///< per key, scatter cursors
