@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -17,6 +21,8 @@ namespace {
     /// The work lists are split into this many chunks (enough for load balance on a few
     /// threads), each with its own results: they do not depend on the thread split.
     constexpr int work_chunks = 64;
+    /// Columns of at most this many faces are scanned from their start, without a search.
+    constexpr int short_column = 32;
 
     bool boxes_overlap(const Box3& a, const Box3& b)
     {
@@ -224,9 +230,20 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
                     return x.box.min()[axis] < y.box.min()[axis]
                         || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
                 });
-        data.keys.resize(data.faces.size());
-        for (std::size_t k = 0; k < data.faces.size(); ++k)
-            data.keys[k] = data.faces[k].box.min()[axis];
+        const std::size_t active = data.faces.size();
+        for (int a = 0; a < 3; ++a) {
+            data.lo[static_cast<std::size_t>(a)].resize(active);
+            data.hi[static_cast<std::size_t>(a)].resize(active);
+        }
+        data.index.resize(active);
+        for (std::size_t k = 0; k < active; ++k) {
+            const Item& item = data.faces[k];
+            for (int a = 0; a < 3; ++a) {
+                data.lo[static_cast<std::size_t>(a)][k] = item.box.min()[a];
+                data.hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
+            }
+            data.index[k] = item.index;
+        }
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -278,6 +295,18 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
     const int v1 = index(grown.max()(v), data.origin_v, data.cell_v, data.columns_v);
     const double from = grown.min()[axis] - data.face_width;
     const double to = grown.max()[axis];
+    const double* keys = data.lo[static_cast<std::size_t>(axis)].data();
+    const double* lo_u = data.lo[static_cast<std::size_t>(u)].data();
+    const double* lo_v = data.lo[static_cast<std::size_t>(v)].data();
+    const double* hi_a = data.hi[static_cast<std::size_t>(axis)].data();
+    const double* hi_u = data.hi[static_cast<std::size_t>(u)].data();
+    const double* hi_v = data.hi[static_cast<std::size_t>(v)].data();
+    const int* face = data.index.data();
+#if defined(__AVX512F__)
+    const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
+    const __m512d low_u = _mm512_set1_pd(grown.min()(u)), high_u = _mm512_set1_pd(grown.max()(u));
+    const __m512d low_v = _mm512_set1_pd(grown.min()(v)), high_v = _mm512_set1_pd(grown.max()(v));
+#endif
     for (int cv = v0; cv <= v1; ++cv)
         for (int cu = u0; cu <= u1; ++cu) {
             const int c = cv * data.columns_u + cu;
@@ -285,13 +314,39 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
             const int end = data.column_start[static_cast<std::size_t>(c + 1)];
             if (begin == end)
                 continue;
-            const double* keys = data.keys.data();
-            for (int k = static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
-                 k < end && keys[k] <= to; ++k) {
-                const Item& item = data.faces[static_cast<std::size_t>(k)];
-                if (boxes_overlap(item.box, grown))
-                    visit(item.index);
+            // A short column is scanned from its start (cheaper than the search).
+            int k = end - begin <= short_column
+                ? begin
+                : static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
+#if defined(__AVX512F__)
+            // Eight faces at a time, in order, up to the first whose key is past `to`.
+            for (; k < end; k += 8) {
+                const __mmask8 live
+                    = static_cast<__mmask8>(end - k >= 8 ? 0xFF : (1u << (end - k)) - 1u);
+                const __mmask8 before = _mm512_mask_cmp_pd_mask(
+                    live, _mm512_maskz_loadu_pd(live, keys + k), high_a, _CMP_LE_OQ);
+                __mmask8 m = _mm512_mask_cmp_pd_mask(
+                    before, low_a, _mm512_maskz_loadu_pd(live, hi_a + k), _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, _mm512_maskz_loadu_pd(live, lo_u + k), high_u, _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, low_u, _mm512_maskz_loadu_pd(live, hi_u + k), _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
+                for (unsigned bits = m; bits != 0; bits &= bits - 1)
+                    visit(face[k + __builtin_ctz(bits)]);
+                if (before != live)
+                    break;
             }
+#else
+            for (; k < end && keys[k] <= to; ++k)
+                if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
+                    & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
+                    & (grown.min()(v) <= hi_v[k]))
+                    visit(face[k]);
+#endif
         }
 }
 

@@ -18,7 +18,8 @@
 //      side of their box; cells no narrower than the widest triangle, by the low corner of the
 //      triangle's box) and sorted along that axis within a column;
 //   3. every active triangle (and node) looks up the boxes that overlap its own in the other
-//      side's neighbouring columns (binary search, then a scan), so each candidate is found and
+//      side's neighbouring columns (a scan from the column's start, or past a binary search in
+//      a long column; with AVX-512, eight boxes per comparison), so each candidate is found and
 //      tested once.
 // The triangle pairs found are a superset of the pair-by-pair ones (those lie in the primitives'
 // regions too), so none of those is lost. Parallel (TBB) over triangles and nodes; the results
@@ -112,7 +113,10 @@ private:
         double cell_u = 1.0, cell_v = 1.0; ///< cell sizes (>= the widths)
         int columns_u = 1, columns_v = 1;
         std::vector<int> column_start; ///< columns + 1, CSR into `faces`
-        std::vector<double> keys; ///< per face of `faces`, its box's low end on the sweep axis
+        /// Per face of `faces`, its box (low and high corner per axis) and its index, in
+        /// structure-of-arrays form for the queries; lo[axis] are the sort keys.
+        std::array<std::vector<double>, 3> lo, hi;
+        std::vector<int> index;
         std::vector<int> fill; ///< columns, scatter cursors
         std::vector<Item> sorted; ///< workspace of the counting sort
 
