@@ -71,49 +71,100 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
                 positions.row(c) += coupling(c, d) * forces.row(d);
         }
 
-    for (int sweep = 0; sweep < settings.max_sweeps; ++sweep) {
-        double change = 0.0;
-        for (Index c = 0; c < m; ++c) {
-            const PlaneCollider& plane = planes[pairs[c].plane];
-            const double coupling_cc = coupling(c, c);
-            if (!(coupling_cc > 0.0))
-                continue; // a node the global step cannot move (cannot happen for SPD systems)
-            // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
-            // unit force.
-            const double eps = plane.compliance * coupling_cc;
-            const double w = coupling_cc + eps;
-            const Vec3 n = plane.normal;
-            const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
-            const Vec3 f = forces.row(c).transpose();
-            const double f_n = n.dot(f);
-            const Vec3 f_t = f - f_n * n;
+    // Projected Gauss-Seidel over a working set: the contacts that push or are not clear of
+    // their plane. The others would change nothing in a sweep (no force, and a positive gap
+    // gives none), so a sweep runs over the working set only and keeps only its positions up
+    // to date; once it has converged, every position is brought up to date and a contact that
+    // has come into its plane joins, and the sweeps go on. The iterates are those of sweeping
+    // all contacts, in the same fixed order, up to when a contact joins.
+    const auto gap_of = [&](Index c) {
+        const PlaneCollider& plane = planes[pairs[c].plane];
+        const double eps = plane.compliance * coupling(c, c);
+        return plane.normal.dot(
+            positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
+    };
+    const auto in_working_set
+        = [&](Index c) { return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0); };
+    // Per-thread scratch, reused: no allocation once warm.
+    thread_local std::vector<Index> working;
+    thread_local std::vector<char> member;
+    working.clear();
+    for (Index c = 0; c < m; ++c)
+        if (in_working_set(c))
+            working.push_back(c);
+    member.assign(static_cast<std::size_t>(m), 0);
+    for (const Index c : working)
+        member[static_cast<std::size_t>(c)] = 1;
 
-            // Normal: the force that closes the gap (or none), Signorini.
-            const double gap = n.dot(x - plane.point);
-            const double f_n_new = std::max(0.0, f_n - gap / w);
-            // Tangent: the force that cancels the tangential displacement since the step
-            // start (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
-            Vec3 u = x - start_positions.row(c).transpose();
-            u -= n.dot(u) * n;
-            Vec3 f_t_new = f_t - u / w;
-            const double limit = plane.friction * f_n_new;
-            const double norm_t = f_t_new.norm();
-            if (norm_t > limit)
-                f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+    int sweep = 0;
+    while (true) {
+        for (; sweep < settings.max_sweeps; ++sweep) {
+            double change = 0.0;
+            for (const Index c : working) {
+                const PlaneCollider& plane = planes[pairs[c].plane];
+                const double coupling_cc = coupling(c, c);
+                if (!(coupling_cc > 0.0))
+                    continue; // a node the global step cannot move (cannot happen for SPD)
+                // With compliance the conditions hold at x + eps f, which moves by
+                // (D_cc + eps) per unit force.
+                const double eps = plane.compliance * coupling_cc;
+                const double w = coupling_cc + eps;
+                const Vec3 n = plane.normal;
+                const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
+                const Vec3 f = forces.row(c).transpose();
+                const double f_n = n.dot(f);
+                const Vec3 f_t = f - f_n * n;
 
-            const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
-            if (delta.squaredNorm() == 0.0)
-                continue;
-            forces.row(c) = (f_n_new * n + f_t_new).transpose();
-            ensure_column(c);
-            for (Index d = 0; d < m; ++d)
-                positions.row(d) += coupling(d, c) * delta.transpose();
-            change = std::max(change, coupling_cc * delta.norm());
+                // Normal: the force that closes the gap (or none), Signorini.
+                const double gap = n.dot(x - plane.point);
+                const double f_n_new = std::max(0.0, f_n - gap / w);
+                // Tangent: the force that cancels the tangential displacement since the step
+                // start (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
+                Vec3 u = x - start_positions.row(c).transpose();
+                u -= n.dot(u) * n;
+                Vec3 f_t_new = f_t - u / w;
+                const double limit = plane.friction * f_n_new;
+                const double norm_t = f_t_new.norm();
+                if (norm_t > limit)
+                    f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+
+                const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
+                if (delta.squaredNorm() == 0.0)
+                    continue;
+                forces.row(c) = (f_n_new * n + f_t_new).transpose();
+                ensure_column(c);
+                for (const Index d : working)
+                    positions.row(d) += coupling(d, c) * delta.transpose();
+                change = std::max(change, coupling_cc * delta.norm());
+            }
+            result.sweeps = sweep + 1;
+            result.last_change = change;
+            if (change <= settings.tolerance) {
+                ++sweep;
+                break;
+            }
         }
-        result.sweeps = sweep + 1;
-        result.last_change = change;
-        if (change <= settings.tolerance)
+        // Every position from the forces, then the contacts that have come into their plane.
+        for (Index d = 0; d < m; ++d)
+            if (!member[static_cast<std::size_t>(d)])
+                positions.row(d) = free_positions.row(d);
+        for (const Index c : working)
+            if (forces.row(c).squaredNorm() > 0.0)
+                for (Index d = 0; d < m; ++d)
+                    if (!member[static_cast<std::size_t>(d)])
+                        positions.row(d) += coupling(d, c) * forces.row(c);
+        bool joined = false;
+        for (Index c = 0; c < m; ++c)
+            if (!member[static_cast<std::size_t>(c)] && in_working_set(c)) {
+                member[static_cast<std::size_t>(c)] = 1;
+                joined = true;
+            }
+        if (!joined || sweep >= settings.max_sweeps)
             break;
+        working.clear();
+        for (Index c = 0; c < m; ++c)
+            if (member[static_cast<std::size_t>(c)])
+                working.push_back(c);
     }
     return result;
 }
