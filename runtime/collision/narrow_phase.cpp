@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -293,7 +294,11 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
     const int u1 = index(grown.max()(u), data.origin_u, data.cell_u, data.columns_u);
     const int v0 = index(grown.min()(v) - data.width_v, data.origin_v, data.cell_v, data.columns_v);
     const int v1 = index(grown.max()(v), data.origin_v, data.cell_v, data.columns_v);
-    const double from = grown.min()[axis] - data.face_width;
+    // `from` a few ulps low: a face whose key is just below it cannot then overlap after
+    // rounding, so the scan from a short column's start and the search agree.
+    const double from = grown.min()[axis] - data.face_width
+        - 4.0 * std::numeric_limits<double>::epsilon()
+            * (std::abs(grown.min()[axis]) + data.face_width);
     const double to = grown.max()[axis];
     const double* keys = data.lo[static_cast<std::size_t>(axis)].data();
     const double* lo_u = data.lo[static_cast<std::size_t>(u)].data();

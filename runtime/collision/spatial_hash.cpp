@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#if defined(__AVX512F__)
+#if defined(__AVX512F__) && defined(__AVX512VL__)
 #include <immintrin.h>
 #endif
 
@@ -243,7 +243,7 @@ void SpatialHash::entry_pairs(int p, int first, int last, std::vector<ItemPair>&
         if (tags_allowed(e.body[sp], e.spheres[sp], e.body[sq], e.spheres[sq]))
             out.emplace_back(std::min(e.item[sp], e.item[sq]), std::max(e.item[sp], e.item[sq]));
     };
-#if defined(__AVX512F__)
+#if defined(__AVX512F__) && defined(__AVX512VL__)
     // Eight candidates at a time: one mask from the cell, box and body comparisons.
     __m512i cell[3];
     __m512d lo[3], hi[3];

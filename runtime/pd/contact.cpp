@@ -47,6 +47,18 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings)
 {
+    ContactScratch scratch;
+    return solve_plane_contacts(coupling, column_ready, fill_column, planes, pairs, free_positions,
+        start_positions, forces, positions, settings, scratch);
+}
+
+ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
+    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
+    const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
+    const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
+    Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings,
+    ContactScratch& scratch)
+{
     const Index m = static_cast<Index>(pairs.size());
     MAT_CHECK(coupling.rows() == m && coupling.cols() == m && free_positions.rows() == m
             && start_positions.rows() == m && forces.rows() == m && positions.rows() == m
@@ -85,9 +97,8 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     };
     const auto in_working_set
         = [&](Index c) { return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0); };
-    // Per-thread scratch, reused: no allocation once warm.
-    thread_local std::vector<Index> working;
-    thread_local std::vector<char> member;
+    std::vector<Index>& working = scratch.working;
+    std::vector<char>& member = scratch.member;
     working.clear();
     for (Index c = 0; c < m; ++c)
         if (in_working_set(c))
@@ -154,13 +165,20 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
                     if (!member[static_cast<std::size_t>(d)])
                         positions.row(d) += coupling(d, c) * forces.row(c);
         bool joined = false;
+        double depth = 0.0; // the deepest of the contacts that join
         for (Index c = 0; c < m; ++c)
             if (!member[static_cast<std::size_t>(c)] && in_working_set(c)) {
                 member[static_cast<std::size_t>(c)] = 1;
                 joined = true;
+                depth = std::max(depth, -gap_of(c));
             }
-        if (!joined || sweep >= settings.max_sweeps)
+        if (!joined)
             break;
+        if (sweep >= settings.max_sweeps) {
+            // No sweep left for them: not converged.
+            result.last_change = std::max(result.last_change, depth);
+            break;
+        }
         working.clear();
         for (Index c = 0; c < m; ++c)
             if (member[static_cast<std::size_t>(c)])

@@ -227,7 +227,7 @@ void PdSolver::step(const Model& model, const State& in, State& out, double dt)
                 m_contact_free.row(a) = m_global->node_position(m_pairs[a].node).transpose();
             const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready,
                 m_fill_column, m_step_planes, m_pairs, m_contact_free, m_contact_start,
-                m_contact_forces, m_contact_positions, m_options.contact);
+                m_contact_forces, m_contact_positions, m_options.contact, m_contact_scratch);
             m_report.contact_sweeps += result.sweeps;
             m_global->add_forces(m_pair_nodes, m_contact_forces);
             m_timings.contact += timer.seconds();

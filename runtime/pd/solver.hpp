@@ -124,6 +124,7 @@ private:
     std::vector<char> m_column_ready; ///< m
     std::function<void(Index)> m_fill_column;
     MatX3 m_contact_free, m_contact_start, m_contact_forces, m_contact_positions; ///< m x 3
+    ContactScratch m_contact_scratch;
     /// The last step's force of each (node, plane) pair, row node * #planes + plane: the warm
     /// start of the next step's contact solve.
     MatX3 m_previous_forces;

@@ -5,7 +5,7 @@
 # --weights-per-node 16: with 8 this medial mesh gives a rank-deficient basis), drops one
 # creature on the other for STEPS steps (25 by default: the two then press into each other,
 # about 170 triangle pairs intersecting; by 40 they have come apart), then runs collision_bench
-# (see its header) ROUNDS times (default 5), the first under perf stat when perf is available,
+# (see its header) ROUNDS times (default 5), the last under perf stat when perf is available,
 # for the process CPU time. Prints the last round in full, then per round and over the rounds
 # (median, min, max) the bounded pipeline's wall ms per step and the two ratios: the VM's speed
 # drifts by 15-50% over seconds to minutes, so one round can land in a slow state.
@@ -34,7 +34,7 @@ cat >"$work/scene.json" <<JSON
 JSON
 bench=("$build/tests/bench/collision_bench" "$work/scene.json" "$steps" "$repeats")
 for ((round = 1; round <= rounds; ++round)); do
-    if ((round == 1)) && command -v perf >/dev/null && perf stat -e task-clock true >/dev/null 2>&1; then
+    if ((round == rounds)) && command -v perf >/dev/null && perf stat -e task-clock true >/dev/null 2>&1; then
         MAT_THREADS=2 perf stat -e task-clock,context-switches "${bench[@]}" > "$work/log" 2>&1
     else
         MAT_THREADS=2 "${bench[@]}" > "$work/log" 2>&1
