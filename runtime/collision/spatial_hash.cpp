@@ -214,7 +214,6 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
         }
         to.item[k] = static_cast<int>(i);
         to.body[k] = r.body;
-        to.spheres[k] = r.spheres;
     });
 }
 
@@ -227,7 +226,6 @@ void SpatialHash::Entries::resize(std::size_t n)
     }
     item.resize(n);
     body.resize(n);
-    spheres.resize(n);
 }
 
 void SpatialHash::entry_pairs(int p, int first, int last, std::vector<ItemPair>& out) const
@@ -240,7 +238,9 @@ void SpatialHash::entry_pairs(int p, int first, int last, std::vector<ItemPair>&
     const std::size_t sp = static_cast<std::size_t>(p);
     const auto emit = [&](int q) {
         const std::size_t sq = static_cast<std::size_t>(q);
-        if (tags_allowed(e.body[sp], e.spheres[sp], e.body[sq], e.spheres[sq]))
+        const Slot& a = m_slots[static_cast<std::size_t>(e.item[sp])];
+        const Slot& b = m_slots[static_cast<std::size_t>(e.item[sq])];
+        if (tags_allowed(a.body, a.spheres, b.body, b.spheres))
             out.emplace_back(std::min(e.item[sp], e.item[sq]), std::max(e.item[sp], e.item[sq]));
     };
 #if defined(__AVX512F__) && defined(__AVX512VL__)

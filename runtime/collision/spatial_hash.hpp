@@ -93,12 +93,12 @@ private:
     };
 
     /// The entries (one per cell of each hashed item) in bucket order, structure of arrays so
-    /// that one entry is tested against several at once: its cell, box, item, body and spheres.
+    /// that one entry is tested against several at once: its cell, box, item and body (the
+    /// spheres, read on a hit only, stay in the item's slot).
     struct Entries {
         std::array<std::vector<std::int64_t>, 3> cell;
         std::array<std::vector<double>, 3> lo, hi;
         std::vector<int> item, body;
-        std::vector<std::array<int, 3>> spheres;
 
         std::size_t size() const { return item.size(); }
         void resize(std::size_t n);

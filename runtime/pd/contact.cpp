@@ -87,8 +87,8 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     // their plane. The others would change nothing in a sweep (no force, and a positive gap
     // gives none), so a sweep runs over the working set only and keeps only its positions up
     // to date; once it has converged, every position is brought up to date and a contact that
-    // has come into its plane joins, and the sweeps go on. The iterates are those of sweeping
-    // all contacts, in the same fixed order, up to when a contact joins.
+    // has come into its plane joins, and the sweeps go on (sweeping all contacts would act on
+    // it in the sweep it came into its plane; both converge to the same conditions).
     const auto gap_of = [&](Index c) {
         const PlaneCollider& plane = planes[pairs[c].plane];
         const double eps = plane.compliance * coupling(c, c);
@@ -99,16 +99,16 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
         = [&](Index c) { return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0); };
     std::vector<Index>& working = scratch.working;
     std::vector<char>& member = scratch.member;
-    working.clear();
+    member.resize(static_cast<std::size_t>(m));
     for (Index c = 0; c < m; ++c)
-        if (in_working_set(c))
-            working.push_back(c);
-    member.assign(static_cast<std::size_t>(m), 0);
-    for (const Index c : working)
-        member[static_cast<std::size_t>(c)] = 1;
+        member[static_cast<std::size_t>(c)] = in_working_set(c) ? 1 : 0;
 
     int sweep = 0;
     while (true) {
+        working.clear();
+        for (Index c = 0; c < m; ++c)
+            if (member[static_cast<std::size_t>(c)])
+                working.push_back(c);
         for (; sweep < settings.max_sweeps; ++sweep) {
             double change = 0.0;
             for (const Index c : working) {
@@ -179,10 +179,6 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
             result.last_change = std::max(result.last_change, depth);
             break;
         }
-        working.clear();
-        for (Index c = 0; c < m; ++c)
-            if (member[static_cast<std::size_t>(c)])
-                working.push_back(c);
     }
     return result;
 }
