@@ -4,6 +4,7 @@
 
 #include "common/error.hpp"
 #include "common/log.hpp"
+#include "common/timer.hpp"
 #include "formats/bake_io.hpp"
 #include "runtime/pd/hyper_reduced.hpp"
 #include "runtime/scene/pin_motion.hpp"
@@ -200,6 +201,12 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
             options.pinned_nodes.size());
         m_bodies.push_back(std::move(body));
     }
+    m_contact_stage = std::make_unique<ContactStage>(static_cast<Index>(m_bodies.size()));
+    // Speculative contacts: what a vertex may close in a step at its approach speed (a quarter
+    // more for the speed it gains in the step), and what gravity adds.
+    if (m_collision)
+        m_collision->set_lookahead(
+            1.25 * scene.time.dt, scene.time.dt * scene.time.dt * scene.gravity.norm());
 }
 
 bool Simulation::update_pin_targets(Body& body, double time)
@@ -315,38 +322,85 @@ void Simulation::step()
             body.slow_steps = 0;
         }
     }
-    if (m_collision) {
-        // Before the first step q does not hold the placement yet: bounds from positions.
-        std::vector<CollisionBodyState>& states = m_states;
-        states.assign(m_bodies.size(), CollisionBodyState {});
-        for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-            const Body& body = m_bodies[b];
-            states[b].nodes = &body.state.positions;
-            states[b].is_static = body.is_static || body.asleep;
-            states[b].reuse_bounds = !body.moved;
-            const auto* semi = dynamic_cast<const SemiReducedSolver*>(body.solver.get());
-            if (semi != nullptr && m_steps > 0 && !body.is_static)
-                states[b].q = &semi->reduced_coordinates();
-        }
-        m_collision->update_bounds(states);
-        for (Body& body : m_bodies)
-            body.moved = false;
-        wake_touched(states);
-        const auto& contacts = m_collision->find_contacts(states);
-        for (std::size_t b = 0; b < m_bodies.size(); ++b)
-            if (!states[b].is_static)
-                m_bodies[b].solver->set_node_contacts(contacts[b]);
+    const BodyContacts* contacts = &m_no_contacts;
+    if (m_collision)
+        contacts = &detect_contacts();
+    step_bodies(*contacts, pins_moved);
+    ++m_steps;
+}
+
+// How far a node of an awake dynamic body may move in the coming step: h |v| at its fastest
+// node, a quarter more for the velocity it gains in the step, and h^2 |g|.
+double Simulation::motion_bound(const Body& body) const
+{
+    const double h = m_scene.time.dt;
+    const double speed = std::sqrt(body.state.velocities.rowwise().squaredNorm().maxCoeff());
+    return 1.25 * h * speed + h * h * m_scene.gravity.norm();
+}
+
+const BodyContacts& Simulation::detect_contacts()
+{
+    // Before the first step q does not hold the placement yet: bounds from positions.
+    std::vector<CollisionBodyState>& states = m_states;
+    states.assign(m_bodies.size(), CollisionBodyState {});
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        const Body& body = m_bodies[b];
+        states[b].nodes = &body.state.positions;
+        states[b].is_static = body.is_static || body.asleep;
+        states[b].reuse_bounds = !body.moved;
+        if (m_steps > 0 && !body.is_static)
+            states[b].q = body.solver->reduced_coordinates();
+        states[b].velocities = &body.state.velocities;
+        if (!states[b].is_static)
+            states[b].motion = motion_bound(body);
     }
+    m_collision->update_bounds(states);
+    for (Body& body : m_bodies)
+        body.moved = false;
+    wake_touched(states);
+    return m_collision->find_contacts(states);
+}
+
+// The bodies' PD steps in stages, with one contact stage over all of them between each
+// iteration's global solves and positions (runtime/pd/contact_stage.hpp).
+void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<char>& pins_moved)
+{
+    std::vector<ContactBodyState>& views = m_contact_views;
+    views.assign(m_bodies.size(), ContactBodyState {});
+    m_stepped.clear();
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
         Body& body = m_bodies[b];
+        // A kinematic body has moved already: it started the step where `next` holds now.
+        views[b].start = body.is_kinematic ? &body.next.positions : &body.state.positions;
+        views[b].now = &body.state.positions;
         if (body.is_static || body.asleep)
             continue;
-        body.solver->step(*body.model, body.state, body.next, dt);
+        body.solver->begin_step(body.state, body.next);
+        views[b].solver = body.solver.get();
+        m_stepped.push_back(b);
+    }
+    if (m_stepped.empty())
+        return;
+    Timer timer;
+    m_contact_stage->begin_step(views, contacts);
+    const double share = timer.seconds() / static_cast<double>(m_stepped.size());
+    const int iterations = m_scene.time.iterations;
+    for (int iteration = 0; iteration < iterations; ++iteration) {
+        for (const std::size_t b : m_stepped)
+            m_bodies[b].solver->iterate(iteration);
+        m_contact_stage->solve();
+        for (const std::size_t b : m_stepped)
+            m_bodies[b].solver->finish_iteration(iteration);
+    }
+    m_contact_stage->end_step();
+    for (const std::size_t b : m_stepped) {
+        Body& body = m_bodies[b];
+        body.solver->add_contact_seconds(share);
+        body.solver->end_step();
         std::swap(body.state, body.next);
         body.moved = true;
         update_sleep(body, pins_moved[b] != 0);
     }
-    ++m_steps;
 }
 
 } // namespace mat

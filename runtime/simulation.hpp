@@ -109,6 +109,11 @@ private:
     /// After a step: counts the body's slow steps and puts it to sleep after enough.
     void update_sleep(Body& body, bool pins_moved);
     void move_kinematic(Body& body, double time);
+    double motion_bound(const Body& body) const;
+    /// The collision world's contacts at the start of the step (wakes the touched sleepers).
+    const BodyContacts& detect_contacts();
+    /// Steps the awake dynamic bodies together with the contact stage.
+    void step_bodies(const BodyContacts& contacts, const std::vector<char>& pins_moved);
 
     const Scene& m_scene;
     std::vector<Body> m_bodies;
@@ -117,6 +122,10 @@ private:
     std::vector<char> m_pins_moved;
     std::vector<std::size_t> m_movers;
     std::unique_ptr<CollisionWorld> m_collision;
+    std::unique_ptr<ContactStage> m_contact_stage;
+    BodyContacts m_no_contacts;
+    std::vector<ContactBodyState> m_contact_views;
+    std::vector<std::size_t> m_stepped;
     SolverKind m_solver_kind = SolverKind::semi_reduced;
     long m_steps = 0;
 };

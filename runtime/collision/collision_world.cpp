@@ -28,62 +28,6 @@ namespace {
         }
     }
 
-    /// Nearest point of `points` (#P x 3) to each query, by a uniform grid of cell `cell`
-    /// searched in growing shells (exact: a shell is searched until it cannot hold a closer
-    /// point).
-    std::vector<int> nearest_points(
-        const MatX3& points, const std::vector<Vec3>& queries, double cell)
-    {
-        std::unordered_map<std::int64_t, std::vector<int>> grid;
-        const auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
-            return (x * 73856093) ^ (y * 19349663) ^ (z * 83492791);
-        };
-        const auto cell_of = [&](const Vec3& p, int axis) {
-            return static_cast<std::int64_t>(std::floor(p(axis) / cell));
-        };
-        for (Index i = 0; i < points.rows(); ++i) {
-            const Vec3 p = points.row(i).transpose();
-            grid[key(cell_of(p, 0), cell_of(p, 1), cell_of(p, 2))].push_back(static_cast<int>(i));
-        }
-        std::vector<int> result(queries.size(), -1);
-        for (std::size_t q = 0; q < queries.size(); ++q) {
-            const Vec3& p = queries[q];
-            const std::int64_t cx = cell_of(p, 0), cy = cell_of(p, 1), cz = cell_of(p, 2);
-            double best = std::numeric_limits<double>::infinity();
-            for (int shell = 0; shell < 64; ++shell) {
-                for (std::int64_t x = cx - shell; x <= cx + shell; ++x)
-                    for (std::int64_t y = cy - shell; y <= cy + shell; ++y)
-                        for (std::int64_t z = cz - shell; z <= cz + shell; ++z) {
-                            if (std::max({ std::abs(x - cx), std::abs(y - cy), std::abs(z - cz) })
-                                != shell)
-                                continue;
-                            const auto it = grid.find(key(x, y, z));
-                            if (it == grid.end())
-                                continue;
-                            for (const int i : it->second) {
-                                const double d = (points.row(i).transpose() - p).squaredNorm();
-                                if (d < best || (d == best && i < result[q])) {
-                                    best = d;
-                                    result[q] = i;
-                                }
-                            }
-                        }
-                // Points outside the searched shells are at least shell * cell away.
-                if (result[q] >= 0 && std::sqrt(best) <= shell * cell)
-                    break;
-            }
-            if (result[q] < 0) // farther than 64 cells: brute force
-                for (Index i = 0; i < points.rows(); ++i) {
-                    const double d = (points.row(i).transpose() - p).squaredNorm();
-                    if (d < best) {
-                        best = d;
-                        result[q] = static_cast<int>(i);
-                    }
-                }
-        }
-        return result;
-    }
-
 } // namespace
 
 CollisionWorld::CollisionWorld(const CollisionSettings& settings)
@@ -108,26 +52,19 @@ void CollisionWorld::add_body(const BakeData& bake)
     const MatX3& rest = bake.tet_mesh.positions;
     body.diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
 
-    // Boundary nodes, each assigned the primitive of its nearest surface vertex.
-    const std::vector<int> boundary = boundary_nodes(body.tets, rest.rows());
-    std::vector<Vec3> queries;
-    queries.reserve(boundary.size());
-    for (const int i : boundary)
-        queries.push_back(rest.row(i).transpose());
-    const std::vector<int> nearest
-        = nearest_points(bake.surface.positions, queries, 0.02 * body.diagonal);
+    // The contact points: the surface vertices, grouped by the primitive that encloses each.
     const Index num_primitives = body.collision.primitive_kind.size();
-    body.node_indptr = VecXi::Zero(num_primitives + 1);
-    for (const int v : nearest)
-        ++body.node_indptr(body.collision.vertex_primitive(v) + 1);
+    const VecXi& primitive = body.collision.vertex_primitive;
+    body.vertex_indptr = VecXi::Zero(num_primitives + 1);
+    for (Index v = 0; v < primitive.size(); ++v)
+        ++body.vertex_indptr(primitive(v) + 1);
     for (Index p = 0; p < num_primitives; ++p)
-        body.node_indptr(p + 1) += body.node_indptr(p);
-    body.node_list.resize(static_cast<Index>(boundary.size()));
-    VecXi fill = body.node_indptr.head(num_primitives);
-    for (std::size_t b = 0; b < boundary.size(); ++b)
-        body.node_list(fill(body.collision.vertex_primitive(nearest[b]))++) = boundary[b];
+        body.vertex_indptr(p + 1) += body.vertex_indptr(p);
+    body.vertex_list.resize(primitive.size());
+    VecXi fill = body.vertex_indptr.head(num_primitives);
+    for (Index v = 0; v < primitive.size(); ++v)
+        body.vertex_list(fill(primitive(v))++) = static_cast<int>(v);
     m_bodies.push_back(std::move(body));
-    m_contacts.resize(m_bodies.size());
 }
 
 void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state, double margin)
@@ -159,6 +96,18 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
         for (Index i = range.begin(); i != range.end(); ++i)
             surface.row(i) = (r * Vec3(surface.row(i).transpose()) + t).transpose();
     });
+    if (state.velocities != nullptr) {
+        MatX3& velocity = body.surface_velocity;
+        velocity.resize(surface.rows(), 3);
+        body.surface_view.interpolate(*state.velocities, velocity);
+        tbb::parallel_for(
+            tbb::blocked_range<Index>(0, velocity.rows(), 512), [&](const auto& range) {
+                for (Index i = range.begin(); i != range.end(); ++i)
+                    velocity.row(i) = (r * Vec3(velocity.row(i).transpose())).transpose();
+            });
+    } else {
+        body.surface_velocity.resize(0, 3);
+    }
 
     // The body's primitives in the world, radii grown by half the margin, and their boxes.
     body.items.clear();
@@ -173,7 +122,7 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
         prim.count = body.bounds.counts()(p);
         for (int i = 0; i < prim.count; ++i) {
             prim.centers[i] = r * body.bounds.centers().block<1, 3>(p, 3 * i).transpose() + t;
-            prim.radii[i] = body.bounds.radii()(p, i) + 0.5 * margin;
+            prim.radii[i] = body.bounds.radii()(p, i) + 0.5 * margin + state.motion;
             item.box.extend(Box3(
                 prim.centers[i].array() - prim.radii[i], prim.centers[i].array() + prim.radii[i]));
             item.spheres[i] = body.collision.primitive_spheres(p, i);
@@ -194,8 +143,7 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     body.has_bounds = true;
 }
 
-const std::vector<std::vector<NodeContact>>& CollisionWorld::detect(
-    const std::vector<CollisionBodyState>& states)
+const BodyContacts& CollisionWorld::detect(const std::vector<CollisionBodyState>& states)
 {
     update_bounds(states);
     return find_contacts(states);
@@ -231,13 +179,11 @@ void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states
     m_report.bounds_seconds = timer.seconds();
 }
 
-const std::vector<std::vector<NodeContact>>& CollisionWorld::find_contacts(
-    const std::vector<CollisionBodyState>& states)
+const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBodyState>& states)
 {
     MAT_CHECK(states.size() == m_bodies.size(), "collision: {} states for {} bodies", states.size(),
         m_bodies.size());
-    for (auto& c : m_contacts)
-        c.clear();
+    m_contacts.clear();
     m_intersecting.clear();
     if (!m_settings.enabled || m_bodies.empty())
         return m_contacts;
@@ -347,12 +293,15 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         NarrowPhaseBody& view = m_views[b];
         view.surface = &body.surface;
         view.faces = &body.surface_view.faces();
-        view.nodes = &body.nodes;
+        view.nodes = &body.surface;
         view.face_indptr = &body.collision.face_primitives_indptr;
         view.face_list = &body.collision.face_primitives;
-        view.node_indptr = &body.node_indptr;
-        view.node_list = &body.node_list;
+        view.node_indptr = &body.vertex_indptr;
+        view.node_list = &body.vertex_list;
+        view.nodes_are_vertices = true;
         view.is_static = states[b].is_static;
+        view.motion = states[b].motion;
+        view.velocities = body.surface_velocity.rows() > 0 ? &body.surface_velocity : nullptr;
     }
     m_pair_refs.clear();
     for (const auto& [i, j] : m_colliding) {
@@ -361,29 +310,39 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         m_pair_refs.push_back(
             { a.body, a.primitive, b.body, b.primitive, a.box.intersection(b.box) });
     }
-    m_narrow.run(m_views, m_pair_refs, margin);
+    m_narrow.run(m_views, m_pair_refs, margin, m_lookahead, m_extra);
     m_intersecting = m_narrow.intersecting();
     m_report.triangle_tests = m_narrow.triangle_tests();
     m_report.node_tests = m_narrow.node_tests();
     m_report.intersecting_triangles = static_cast<int>(m_intersecting.size());
 }
 
-void CollisionWorld::respond(const std::vector<CollisionBodyState>& states)
+void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
 {
-    // One candidate per node (the nearest triangle), sorted by (body, node).
+    // One candidate per surface vertex (the nearest triangle), sorted by (body, vertex): the
+    // vertex (its embedding's nodes and weights) against the triangle's closest point.
     for (const NodeCandidate& hit : m_narrow.candidates()) {
-        const CollisionBodyState& state = states[static_cast<std::size_t>(hit.body)];
-        const bool other_dynamic = !states[static_cast<std::size_t>(hit.other_body)].is_static;
-        // The separating plane: through the midpoint when both sides move, else on the other
-        // surface; its normal is the triangle's outward normal.
-        const Vec3 point
-            = other_dynamic ? Vec3(hit.closest + 0.5 * hit.distance * hit.normal) : hit.closest;
-        NodeContact contact;
-        contact.node = hit.node;
-        contact.plane.point = state.rotation.transpose() * (point - state.translation);
-        contact.plane.normal = state.rotation.transpose() * hit.normal;
-        contact.plane.friction = m_settings.friction;
-        m_contacts[static_cast<std::size_t>(hit.body)].push_back(contact);
+        const Body& self = m_bodies[static_cast<std::size_t>(hit.body)];
+        const Body& other = m_bodies[static_cast<std::size_t>(hit.other_body)];
+        const Eigen::Vector3i face = other.surface_view.faces().row(hit.face).transpose();
+        const Vec3& beta = hit.barycentric;
+        for (int c = 0; c < 4; ++c)
+            if (self.surface_view.weights()(hit.node, c) != 0.0)
+                m_contacts.terms.push_back(
+                    ContactTerm { hit.body, self.surface_view.nodes()(hit.node, c),
+                        self.surface_view.weights()(hit.node, c) });
+        const MatX4i& nodes = other.surface_view.nodes();
+        const MatX& weights = other.surface_view.weights();
+        for (int k = 0; k < 3; ++k)
+            for (int c = 0; c < 4; ++c)
+                if (beta(k) * weights(face(k), c) != 0.0)
+                    m_contacts.terms.push_back(ContactTerm {
+                        hit.other_body, nodes(face(k), c), -beta(k) * weights(face(k), c) });
+        PlaneCollider plane;
+        plane.point = Vec3::Zero();
+        plane.normal = hit.normal;
+        plane.friction = m_settings.friction;
+        m_contacts.close(plane, hit.node);
         m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
         ++m_report.contacts;
     }

@@ -23,15 +23,16 @@
 //      regions, each candidate found and tested once however many pairs share it: exact
 //      triangle-triangle intersection and, for the response, nodes against the other side's
 //      triangles (closest point within the margin, or behind the triangle);
-//   6. response: one contact per node with a separating plane through the midpoint between
-//      the node and its closest point (both bodies dynamic: each side is kept on its half, so
-//      neither is pushed twice) or through the closest point (a static or sleeping body),
-//      solved by the solver's exact Signorini-Coulomb contact solve inside every PD iteration.
+//   6. response: one contact per node, between the node and the closest point of its nearest
+//      triangle (both carried by their bodies' nodes), along the triangle's normal: the contact
+//      stage (runtime/pd/contact_stage.hpp) pushes both bodies with equal and opposite forces
+//      inside every PD iteration.
 // Phases 1, 4 and 5 run in parallel (TBB) over flat arrays kept as members, so a step allocates
 // nothing once warm; per-thread results are merged in a fixed order (sorted by a total order),
 // so the result does not depend on the thread count.
-// Contact acts on tet-mesh boundary nodes (which Mesh_3 puts on the surface); friction is
-// relative to the world, not to the other body's motion.
+// Contact acts on the surface the user sees: its vertices against the other body's (or, with
+// self collision, a non-adjacent part's) triangles, both carried by the tet nodes through the
+// surface embedding; friction acts on their relative motion.
 
 #include <vector>
 
@@ -43,6 +44,7 @@
 #include "runtime/collision/spatial_hash.hpp"
 #include "runtime/output/surface_view.hpp"
 #include "runtime/pd/contact.hpp"
+#include "runtime/pd/contact_stage.hpp"
 
 namespace mat {
 
@@ -96,26 +98,44 @@ struct CollisionBodyState {
     /// The body has not moved since the last update: its bounds, surface and boxes are reused
     /// (a sleeping or static body; ignored before its first update).
     bool reuse_bounds = false;
+    /// How far any of its nodes may move during the coming step (m; 0 for a body that does not
+    /// move): its primitives grow by it and its nodes look that much farther for triangles, so
+    /// that contacts that begin during the step are found at its start (speculative contacts).
+    double motion = 0.0;
+    /// n x 3 node velocities in the solver's coordinates (null: at rest), for the approach
+    /// speed of speculative contacts (set_lookahead).
+    const MatX3* velocities = nullptr;
 };
 
 class CollisionWorld {
 public:
     explicit CollisionWorld(const CollisionSettings& settings);
 
+    /// Speculative contacts: a surface vertex in front of a triangle is a candidate within the
+    /// margin plus `extra` (m) plus `lookahead` (s) times its approach speed (NarrowPhase::run).
+    /// Both 0 by default.
+    void set_lookahead(double lookahead, double extra)
+    {
+        m_lookahead = lookahead;
+        m_extra = extra;
+    }
+
     /// Adds a body from its bake (copies what collision needs). Bodies are numbered in order.
     void add_body(const BakeData& bake);
 
-    /// Runs the pipeline on the bodies' current states (one per added body) and returns, per
-    /// body, its node contacts in its solver's coordinates.
-    const std::vector<std::vector<NodeContact>>& detect(
-        const std::vector<CollisionBodyState>& states);
+    /// Runs the pipeline on the bodies' current states (one per added body) and returns the
+    /// contacts between them: per surface vertex with a triangle near (or in front of it), the
+    /// vertex against the triangle's closest point (each carried by the nodes of the surface
+    /// embedding: the vertex's weights, and minus the point's), the triangle's outward normal,
+    /// world coordinates (runtime/pd/contact_stage.hpp); the key of a contact is its vertex.
+    /// Sorted by (body, vertex).
+    const BodyContacts& detect(const std::vector<CollisionBodyState>& states);
 
     /// The same in two parts: phase 1 (bounds and world boxes; body_box() then holds each
     /// body's box), then phases 2 to 6 on the same bodies (their is_static may have changed in
     /// between: a woken body).
     void update_bounds(const std::vector<CollisionBodyState>& states);
-    const std::vector<std::vector<NodeContact>>& find_contacts(
-        const std::vector<CollisionBodyState>& states);
+    const BodyContacts& find_contacts(const std::vector<CollisionBodyState>& states);
 
     /// Body b's world box at the last update: its enlarged primitives' boxes, radii grown by
     /// half the margin (empty before the first update).
@@ -144,14 +164,15 @@ private:
         MedialCollisionData collision;
         SurfaceView surface_view; ///< the surface embedded in the tets
         MatX4i tets;
-        /// Boundary nodes grouped by the primitive of their nearest surface vertex (CSR).
-        VecXi node_indptr; ///< #P + 1
-        VecXi node_list;
+        /// Surface vertices grouped by their primitive (CSR): the contact points.
+        VecXi vertex_indptr; ///< #P + 1
+        VecXi vertex_list;
         VecXi medial_tet; ///< #S
         MatX medial_barycentric; ///< #S x 4
         double diagonal = 0.0; ///< rest bounding-box diagonal
         // Per-step workspace, world coordinates.
         MatX3 surface; ///< #Vs x 3
+        MatX3 surface_velocity; ///< #Vs x 3 (empty: at rest)
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
         // Phase 1 output, kept while the body does not move.
@@ -183,8 +204,10 @@ private:
     std::vector<PrimitivePairRef> m_pair_refs; ///< per colliding pair
     NarrowPhase m_narrow;
     std::vector<FacePair> m_intersecting;
-    std::vector<std::vector<NodeContact>> m_contacts;
+    BodyContacts m_contacts;
     double m_margin = 0.0; ///< absolute, from the last update_bounds
+    double m_lookahead = 0.0;
+    double m_extra = 0.0;
     CollisionReport m_report;
 };
 

@@ -271,6 +271,14 @@ bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_
     return false;
 }
 
+namespace {
+    Vec3 node_velocity(const NarrowPhaseBody& body, int node)
+    {
+        return body.velocities != nullptr ? Vec3(body.velocities->row(node).transpose())
+                                          : Vec3::Zero();
+    }
+} // namespace
+
 template <class Visit>
 void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visit& visit) const
 {
@@ -356,10 +364,14 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
 }
 
 void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
-    const std::vector<PrimitivePairRef>& pairs, double margin)
+    const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
 {
     prepare(bodies);
-    activate(bodies, pairs, margin);
+    // Regions grow by the margin and the farthest any two bodies' nodes may move in the step.
+    double motion = 0.0;
+    for (const NarrowPhaseBody& body : bodies)
+        motion = std::max(motion, body.motion);
+    activate(bodies, pairs, margin + 2.0 * motion);
     if (m_scratch.size() < static_cast<std::size_t>(work_chunks))
         m_scratch.resize(work_chunks);
     // visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
@@ -421,22 +433,32 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         }
     });
 
-    // Nodes: against the triangles of every partner body whose box grown by the margin holds
-    // them; the nearest within the margin (or behind) wins, ties to the lowest (body, face).
+    // Nodes: against the triangles of every partner body whose box grown by the reach holds
+    // them; the nearest within the reach (or behind) wins, ties to the lowest (body, face).
     m_node_best.resize(m_node_work.size());
     m_node_found.assign(m_node_work.size(), 0);
     in_chunks(m_node_work.size(), [&](Scratch& scratch, std::size_t k) {
         const int bn = m_node_work[k][0];
         const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
         const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
+        const NarrowPhaseBody& data_body = bodies[static_cast<std::size_t>(bn)];
         const Vec3 x = item.box.min();
         NodeCandidate& best = m_node_best[k];
         bool found = false;
         for (const int bf : data.partners) {
             const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
-            overlapping(bf, item.box, margin, [&](int f) {
-                if (bf == bn && !self_pair_allowed(bn, item.index, f, true))
-                    return;
+            // Within the margin, or within reach of the two bodies' motion in the step.
+            const double reach
+                = margin + bodies[static_cast<std::size_t>(bn)].motion + other.motion;
+            overlapping(bf, item.box, reach, [&](int f) {
+                if (bf == bn) {
+                    if (other.nodes_are_vertices
+                        && ((*other.faces)(f, 0) == item.index || (*other.faces)(f, 1) == item.index
+                            || (*other.faces)(f, 2) == item.index))
+                        return;
+                    if (!self_pair_allowed(bn, item.index, f, true))
+                        return;
+                }
                 ++scratch.node_tests;
                 const Vec3 p0 = corner(other, f, 0);
                 const Vec3 p1 = corner(other, f, 1);
@@ -445,15 +467,35 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                 const double length = n.norm();
                 // In front of the triangle's plane by the margin or more: so is its
                 // closest point (which lies in the plane), and the node is no candidate.
-                if (length > 0.0 && n.dot(x - p0) >= margin * length)
+                if (length > 0.0 && n.dot(x - p0) >= reach * length)
                     return;
                 const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
                 const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
                 const double distance = std::sqrt(closest.squared_distance);
                 const double signed_distance
                     = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
-                if (signed_distance >= margin)
+                // Behind: in the triangle's box grown by the margin only (a wider search would
+                // take in nodes on the far side of a part thinner than the reach). In front:
+                // within the margin, plus what the node may close in the step at its approach
+                // speed.
+                if (signed_distance < 0.0) {
+                    const Vec3 lo = p0.cwiseMin(p1).cwiseMin(p2).array() - margin;
+                    const Vec3 hi = p0.cwiseMax(p1).cwiseMax(p2).array() + margin;
+                    if ((x.array() < lo.array()).any() || (x.array() > hi.array()).any())
+                        return;
+                } else if (signed_distance >= reach) {
                     return;
+                }
+                if (signed_distance >= margin + extra) {
+                    const Vec3 v_node = node_velocity(data_body, item.index);
+                    Vec3 v_point = Vec3::Zero();
+                    for (int c = 0; c < 3; ++c)
+                        v_point
+                            += closest.barycentric(c) * node_velocity(other, (*other.faces)(f, c));
+                    const double approach = std::max(0.0, -unit.dot(v_node - v_point));
+                    if (signed_distance >= margin + extra + lookahead * approach)
+                        return;
+                }
                 const double d = std::abs(signed_distance);
                 const double d_best = std::abs(best.distance);
                 if (found
@@ -467,6 +509,7 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                 best.face = f;
                 best.distance = signed_distance;
                 best.closest = closest.point;
+                best.barycentric = closest.barycentric;
                 best.normal = unit;
                 found = true;
             });

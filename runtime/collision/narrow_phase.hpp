@@ -7,7 +7,8 @@
 //     two bodies that have a colliding primitive pair, and within one body (self) when the two
 //     triangles share no vertex and belong to a colliding self pair of primitives;
 //   - each node against the triangles of the other bodies it collides with (and of its own body
-//     through a colliding self pair): the closest triangle within the margin (or behind it).
+//     through a colliding self pair): the closest triangle within the margin plus both bodies'
+//     motion bound for the step (or behind it).
 // Neighbouring primitives enclose many of the same triangles, so testing pair by pair repeats
 // work (on the benchmark's creatures, 1795 primitive pairs gave 6372 triangle candidates for
 // 2359 distinct ones, and filtering each pair's lists cost more than the tests). Instead, per
@@ -45,6 +46,15 @@ struct NarrowPhaseBody {
     const VecXi* node_indptr = nullptr; ///< #P + 1, CSR of the boundary nodes of each primitive
     const VecXi* node_list = nullptr;
     bool is_static = false; ///< its nodes get no contacts
+    /// How far its nodes may move in the step (m): the search for speculative contacts (run())
+    /// reaches the margin plus both bodies' motion.
+    double motion = 0.0;
+    /// n x 3 velocities of the nodes, world coordinates (null: at rest); with nodes that are the
+    /// surface vertices, of the triangles' corners too.
+    const MatX3* velocities = nullptr;
+    /// The "nodes" are the surface vertices (indices into `faces`): a vertex never pairs with a
+    /// triangle of its own body that has it as a corner.
+    bool nodes_are_vertices = false;
 };
 
 /// A colliding primitive pair as the narrow phase reads it.
@@ -62,6 +72,7 @@ struct NodeCandidate {
     int face = 0; ///< the triangle, in other_body
     double distance = 0.0; ///< signed: negative behind the triangle
     Vec3 closest = Vec3::Zero(); ///< closest point of the triangle
+    Vec3 barycentric = Vec3::Zero(); ///< its weights on the triangle's corners
     Vec3 normal = Vec3::UnitY(); ///< the triangle's unit outward normal
 };
 
@@ -71,9 +82,12 @@ using FacePair = std::array<int, 4>;
 class NarrowPhase {
 public:
     /// Runs the narrow phase on `pairs` (primitives of `bodies`) with contact margin `margin`.
-    /// The bodies must be the same ones (same meshes) from one call to the next.
+    /// Speculative contacts: a node in front of a triangle is a candidate within the margin plus
+    /// `extra` plus `lookahead` (s) times its approach speed (the node's velocity relative to the
+    /// triangle's closest point, along the triangle's normal; the bodies' velocities). The
+    /// bodies must be the same ones (same meshes) from one call to the next.
     void run(const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs,
-        double margin);
+        double margin, double lookahead = 0.0, double extra = 0.0);
 
     /// The distinct intersecting triangle pairs, sorted.
     const std::vector<FacePair>& intersecting() const { return m_intersecting; }

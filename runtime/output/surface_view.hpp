@@ -16,6 +16,9 @@ public:
     Index num_vertices() const { return m_nodes.rows(); }
     const MatX3i& faces() const { return m_faces; } ///< F x 3
     const VecXi& tets() const { return m_tet; } ///< #Vs: the tet each vertex is embedded in
+    /// The embedding: vertex v = sum_c weights(v, c) x_{nodes(v, c)}  (#Vs x 4 each).
+    const MatX4i& nodes() const { return m_nodes; }
+    const MatX& weights() const { return m_weights; }
 
     /// Surface vertex positions  #Vs x 3 from node positions `nodes`  n x 3.
     void positions(const Eigen::Ref<const MatX3>& nodes, Eigen::Ref<MatX3> out) const;

@@ -182,20 +182,18 @@ void ReducedGlobalStep::prepare_nodes(const std::vector<int>& nodes)
     }
 }
 
-double ReducedGlobalStep::coupling(int node_i, int node_j) const
+double ReducedGlobalStep::apply(int node, const Eigen::Ref<const VecX>& response) const
 {
-    const auto z = m_cache.column(node_j);
     double sum = 0.0;
-    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node_i); it; ++it)
-        sum += it.value() * z(it.index());
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+        sum += it.value() * response(it.index());
     return sum;
 }
 
-void ReducedGlobalStep::add_forces(
-    const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
+void ReducedGlobalStep::add_response(
+    const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
 {
-    for (std::size_t c = 0; c < nodes.size(); ++c)
-        m_q.noalias() += m_cache.column(nodes[c]) * forces.row(static_cast<Index>(c));
+    m_q.noalias() += response * force;
 }
 
 void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
@@ -240,16 +238,10 @@ void FullGlobalStep::prepare_nodes(const std::vector<int>& nodes)
     }
 }
 
-double FullGlobalStep::coupling(int node_i, int node_j) const
+void FullGlobalStep::add_response(
+    const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
 {
-    return m_cache.column(node_j)(node_i);
-}
-
-void FullGlobalStep::add_forces(
-    const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
-{
-    for (std::size_t c = 0; c < nodes.size(); ++c)
-        m_x.noalias() += m_cache.column(nodes[c]) * forces.row(static_cast<Index>(c));
+    m_x.noalias() += response * force;
 }
 
 void FullGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)

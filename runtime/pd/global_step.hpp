@@ -4,7 +4,7 @@
 //   A x = b,   A = L_w + M / h^2 + P,   b = M s / h^2 + r + P p
 // (r the local step's projections, P the pin weights, p their targets); the reduced one solves
 // its Galerkin projection onto x = X + B q. Both also answer how a force at one node moves
-// another after the solve (the coupling D of runtime/pd/contact.hpp), for contact.
+// another after the solve (the compliance D of runtime/pd/contact_stage.hpp), for contact.
 
 #include <vector>
 
@@ -47,15 +47,27 @@ public:
     }
     /// Position of `node` in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
-    /// Makes the coupling columns of `nodes` available (cached across calls while the nodes stay
-    /// in the list; nodes dropped from the list are forgotten).
+
+    // The compliance D of the contact stage (runtime/pd/contact_stage.hpp): how a force added to
+    // the right-hand side moves the kept solution. A force f at node j moves the solution by its
+    // response z_j f^T (z_j = S^-1 b_j^T reduced, A^-1 e_j full, a vector of response_size()),
+    // and node i by D_ij f with D_ij = apply(i, z_j).
+
+    /// Length of a response vector (k reduced, n full).
+    virtual Index response_size() const = 0;
+    /// Makes the responses of `nodes` available (cached across calls while the nodes stay in
+    /// the list; nodes dropped from the list are forgotten).
     virtual void prepare_nodes(const std::vector<int>& nodes) = 0;
-    /// D_ij: how far node i moves per unit force at node j (j prepared).
-    virtual double coupling(int node_i, int node_j) const = 0;
-    /// Adds the displacement of forces `forces`  m x 3 at `nodes` (m, prepared, repeats allowed)
-    /// to the kept solution.
-    virtual void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces)
+    /// z_j of a prepared node.
+    virtual Eigen::Ref<const VecX> node_response(int node) const = 0;
+    /// How far node i moves along a response: the row of node i applied to `response`.
+    virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
+    /// Adds `response` f^T to the kept solution (the displacement of a force f).
+    virtual void add_response(
+        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
         = 0;
+    /// The kept reduced coordinates q  k x 3, or null for a full-space step.
+    virtual const MatX* reduced_coordinates() const { return nullptr; }
     /// Writes the kept solution's positions  n x 3.
     virtual void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) = 0;
 };
@@ -93,9 +105,13 @@ public:
     bool takes_local_sums() const override { return true; }
     void solve(const LocalSums& rhs, SolverTimings& timings) override;
     Vec3 node_position(int node) const override;
+    Index response_size() const override { return m_q.rows(); }
     void prepare_nodes(const std::vector<int>& nodes) override;
-    double coupling(int node_i, int node_j) const override;
-    void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces) override;
+    Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
+    double apply(int node, const Eigen::Ref<const VecX>& response) const override;
+    void add_response(
+        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
+    const MatX* reduced_coordinates() const override { return &m_q; }
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
     void solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings);
@@ -103,8 +119,6 @@ public:
     void set_reduced_coordinates(const Eigen::Ref<const MatX>& q);
     /// The basis products the step uses (B^T y, X + B q).
     BasisProducts& products() { return m_products; }
-    /// q  k x 3 of the kept solution.
-    const MatX& reduced_coordinates() const { return m_q; }
 
 private:
     const Model& m_model;
@@ -131,9 +145,15 @@ public:
     explicit FullGlobalStep(const Model& model);
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
     Vec3 node_position(int node) const override;
+    Index response_size() const override { return m_x.rows(); }
     void prepare_nodes(const std::vector<int>& nodes) override;
-    double coupling(int node_i, int node_j) const override;
-    void add_forces(const std::vector<int>& nodes, const Eigen::Ref<const MatX3>& forces) override;
+    Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
+    double apply(int node, const Eigen::Ref<const VecX>& response) const override
+    {
+        return response(node);
+    }
+    void add_response(
+        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
 
 private:

@@ -159,7 +159,7 @@ void HyperReducedSolver::local_global(const Model& model, int iteration,
             m_positions.row(i) = positions.row(i);
     } else {
         // x_i = X_i + B_i q at the kept solution (with its contact displacements).
-        m_q_rows = m_reduced->reduced_coordinates();
+        m_q_rows = *m_reduced->reduced_coordinates();
         const MatX3& rest = model.rest_positions();
         for (Index s = 0; s < count; ++s) {
             const int i = m_sample_nodes[s];
@@ -189,7 +189,7 @@ void HyperReducedSolver::local_global(const Model& model, int iteration,
         m_base += m_fit_constant;
         timings.rhs += timer.seconds();
         m_reduced->solve_reduced(m_base, timings); // its own timing
-        m_q_base = m_reduced->reduced_coordinates();
+        m_q_base = *m_reduced->reduced_coordinates();
         timer.restart();
     }
     m_sample_rows.setZero();

@@ -45,8 +45,6 @@ public:
     ~HyperReducedSolver() override;
 
     const std::vector<int>& sample_tets() const { return m_samples; }
-    /// q  k x 3 of the last step.
-    const MatX& reduced_coordinates() const { return m_reduced->reduced_coordinates(); }
 
 private:
     void local_global(const Model& model, int iteration, const Eigen::Ref<const MatX3>& positions,

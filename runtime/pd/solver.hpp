@@ -28,6 +28,7 @@
 #include "common/eigen_types.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/contact.hpp"
+#include "runtime/pd/contact_stage.hpp"
 #include "runtime/pd/global_step.hpp"
 #include "runtime/pd/local_step.hpp"
 #include "runtime/state.hpp"
@@ -45,10 +46,9 @@ struct SolverOptions {
     /// The local step's decomposition: exact (double precision everywhere) or fast (float
     /// eigenvectors; exact at rest and under rigid motion). See ProjectionParams::exact.
     bool exact_projections = false;
-    /// Compliance of the node contacts given by set_node_contacts (collision between bodies;
-    /// PlaneCollider::compliance): without it, a reduced body pressed by more contacts than it
-    /// has degrees of freedom takes unbounded forces (strains of 2 to 10 on stacked 2-handle
-    /// capsules). Ground planes stay hard.
+    /// Compliance of the contacts between bodies (the contact stage's; PlaneCollider::compliance):
+    /// without it, a reduced body pressed by more contacts than it has degrees of freedom takes
+    /// unbounded forces (strains of 2 to 10 on stacked 2-handle capsules). Ground planes stay hard.
     double node_contact_compliance = 0.1;
 };
 
@@ -62,30 +62,48 @@ struct StepReport {
 
 class PdSolver {
 public:
-    virtual ~PdSolver() = default;
+    virtual ~PdSolver();
 
     /// One time step from `in` to `out` (n x 3 each; `out` is resized if needed, and may not be
-    /// `in`). `dt` must equal model.time_step(): the system matrix is factored for it.
-    void step(const Model& model, const State& in, State& out, double dt);
+    /// `in`), with this body's ground contacts only. `model` must be the solver's model.
+    void step(const Model& model, const State& in, State& out);
+
+    // The step in stages, for a driver that steps several bodies with one contact stage over
+    // all of them (runtime/pd/contact_stage.hpp; Simulation::step):
+    //   begin_step(in, out); contact_stage.begin_step(...);
+    //   for each iteration: iterate(i); contact_stage.solve(); finish_iteration(i);
+    //   contact_stage.end_step(); end_step();
+    // `in` and `out` must stay in place until end_step().
+    void begin_step(const State& in, State& out);
+    void iterate(int iteration);
+    void finish_iteration(int iteration);
+    void end_step();
 
     /// Targets of the pinned nodes for the next steps  #pinned x 3 (kinematic motion).
     void set_pin_targets(const Eigen::Ref<const MatX3>& targets);
     const MatX3& pin_targets() const { return m_pin_targets; }
 
-    /// Contacts for the next step only, besides the ground planes (the collision pipeline's
-    /// output: a node against the separating plane of a contact). Solved with the ground
-    /// contacts by the same exact Signorini-Coulomb solve in every iteration.
-    void set_node_contacts(std::vector<NodeContact> contacts);
-
+    const Model& model() const { return *m_model; }
     const SolverOptions& options() const { return m_options; }
     const SolverTimings& timings() const { return m_timings; }
     const StepReport& last_report() const { return m_report; }
+    /// The kept reduced coordinates q  k x 3 (x = X + B q), or null for full-space PD.
+    const MatX* reduced_coordinates() const { return m_global->reduced_coordinates(); }
+
+    // For the contact stage, during a step:
+    GlobalStep& global_step() { return *m_global; }
+    const GlobalStep& global_step() const { return *m_global; }
+    /// The step's inertia target s  n x 3.
+    const MatX3& inertia_target() const { return m_inertia; }
+    /// The step's positions  n x 3 (after the last finish_iteration, the step's result).
+    const MatX3& step_positions() const { return m_out->positions; }
+    StepReport& report() { return m_report; }
+    void add_contact_seconds(double seconds) { m_timings.contact += seconds; }
 
 protected:
     /// `full_local_step`: make the local step over every tet that the default local_global uses.
     PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global,
         bool full_local_step = true);
-    GlobalStep& global_step() { return *m_global; }
     SolverTimings& mutable_timings() { return m_timings; }
 
     /// One iteration's local step and global solve (the solution stays in the global step): at the
@@ -99,8 +117,6 @@ protected:
     virtual bool reads_iterate() const { return true; }
 
 private:
-    void find_contacts(const State& in);
-
     const Model* m_model;
     SolverOptions m_options;
     std::unique_ptr<GlobalStep> m_global;
@@ -111,35 +127,16 @@ private:
     MatX3 m_rhs_base; ///< n x 3, the terms of the right-hand side that stay fixed in a step
     SolverTimings m_timings;
     StepReport m_report;
-    // Contact workspace.
-    std::vector<int> m_boundary; ///< boundary nodes, the ground contact candidates
-    std::vector<NodeContact> m_node_contacts; ///< for the next step
-    std::vector<PlaneCollider> m_step_planes; ///< ground planes, then one per node contact
-    double m_margin = 0.0; ///< absolute candidate distance (m)
-    std::vector<ContactPair> m_pairs;
-    std::vector<ContactPair> m_old_pairs; ///< the last step's
-    std::vector<int> m_pair_nodes; ///< node of each pair (repeats allowed)
-    std::vector<int> m_unique_nodes;
-    MatX m_coupling; ///< m x m, columns filled on demand
-    std::vector<char> m_column_ready; ///< m
-    std::function<void(Index)> m_fill_column;
-    MatX3 m_contact_free, m_contact_start, m_contact_forces, m_contact_positions; ///< m x 3
-    ContactScratch m_contact_scratch;
-    /// The last step's force of each (node, plane) pair, row node * #planes + plane: the warm
-    /// start of the next step's contact solve.
-    MatX3 m_previous_forces;
-    /// The last step's node-contact force at each node  n x 3 (warm start).
-    MatX3 m_previous_node_forces;
+    const State* m_in = nullptr; ///< the step's, between begin_step and end_step
+    State* m_out = nullptr;
+    /// The contact stage of step() (this body alone), made on its first use.
+    std::unique_ptr<ContactStage> m_own_contacts;
+    std::vector<ContactBodyState> m_own_state;
 };
 
 class SemiReducedSolver final : public PdSolver {
 public:
     explicit SemiReducedSolver(const Model& model, const SolverOptions& options = {});
-    /// The reduced coordinates q  k x 3 of the last step (x = X + B q).
-    const MatX& reduced_coordinates() const { return m_reduced->reduced_coordinates(); }
-
-private:
-    const ReducedGlobalStep* m_reduced;
 };
 
 class FullSolver final : public PdSolver {

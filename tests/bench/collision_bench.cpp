@@ -119,8 +119,7 @@ int run(int argc, char** argv)
         const Body& body = simulation.bodies()[b];
         states[b].nodes = &body.state.positions;
         states[b].is_static = body.is_static;
-        if (const auto* semi = dynamic_cast<const SemiReducedSolver*>(body.solver.get()))
-            states[b].q = &semi->reduced_coordinates();
+        states[b].q = body.solver->reduced_coordinates();
     }
     const auto make = [&](RadiusUpdate bounds, bool all_pairs, bool from_positions = true) {
         CollisionSettings settings;

@@ -116,8 +116,11 @@ namespace {
         { "twist_720", 2.0, 9.0, 9.0 }, // 1.6, 4.4
         { "crush_recover", 1.2, 5.5, 1e-3 }, // 1.6, 2.6; at the end 1e-12, 4e-6
         { "incompressible", 0.0, 1.6, 1.6 }, // 0.67, 0.81
-        { "projectile_bounded", 0.0, 1.7, 1.7 }, // 0.36, 0.84
-        { "handles_1", 0.0, 0.9, 0.9 }, // 0.14, 0.43
+        // The plate now stops the projectile (12 m/s, 28 kg, E = 1e6 Pa, into a 16 cm plate of
+        // E = 1e5 Pa): about 2000 J go into the soft plate, strain 1.99 semi, 2.02 full, 2.21
+        // hyper at the impact, 0 penetration. Before the contact stage pushed both bodies
+        // (docs/method.md, "Contact") the projectile sank 8 cm into the plate: 0.36, 0.84.
+        { "projectile_bounded", 0.0, 4.5, 1.7 }, { "handles_1", 0.0, 0.9, 0.9 }, // 0.14, 0.43
     };
 
     std::vector<StabilityParam> params()

@@ -57,18 +57,15 @@ namespace {
         return world;
     }
 
-    void expect_same_contacts(const std::vector<std::vector<NodeContact>>& a,
-        const std::vector<std::vector<NodeContact>>& b, const std::string& what)
+    void expect_same_contacts(const BodyContacts& a, const BodyContacts& b, const std::string& what)
     {
         ASSERT_EQ(a.size(), b.size()) << what;
-        for (std::size_t body = 0; body < a.size(); ++body) {
-            ASSERT_EQ(a[body].size(), b[body].size()) << what << ", body " << body;
-            for (std::size_t k = 0; k < a[body].size(); ++k) {
-                EXPECT_EQ(a[body][k].node, b[body][k].node) << what;
-                // Bitwise: the same candidates merged in the same order.
-                EXPECT_EQ(a[body][k].plane.point, b[body][k].plane.point) << what;
-                EXPECT_EQ(a[body][k].plane.normal, b[body][k].plane.normal) << what;
-            }
+        // Bitwise: the same candidates in the same order.
+        EXPECT_EQ(a.offsets, b.offsets) << what;
+        EXPECT_TRUE(a.terms == b.terms) << what;
+        for (Index c = 0; c < a.size(); ++c) {
+            EXPECT_EQ(a.planes[c].point, b.planes[c].point) << what;
+            EXPECT_EQ(a.planes[c].normal, b.planes[c].normal) << what;
         }
     }
 
@@ -132,12 +129,12 @@ namespace {
             settings.self = self;
             CollisionWorld world = make_world(settings);
             TwoCreatures scene;
-            std::vector<std::vector<NodeContact>> reference;
+            BodyContacts reference;
             std::vector<FacePair> reference_pairs;
             CollisionReport reference_report;
             for (const int threads : { 1, 2, 3 }) {
                 tbb::task_arena arena(threads);
-                std::vector<std::vector<NodeContact>> contacts;
+                BodyContacts contacts;
                 arena.execute([&] { contacts = world.detect(scene.states); });
                 const std::string what = "threads " + std::to_string(threads);
                 if (threads == 1) {
@@ -165,8 +162,8 @@ namespace {
         TwoCreatures scene;
         scene.states[0].is_static = true;
         const auto& contacts = world.detect(scene.states);
-        EXPECT_TRUE(contacts[0].empty());
-        EXPECT_FALSE(contacts[1].empty());
+        EXPECT_EQ(contacts.count_for(0), 0);
+        EXPECT_GT(contacts.count_for(1), 0);
         scene.states[1].is_static = true;
         world.detect(scene.states);
         EXPECT_EQ(world.last_report().primitive_pairs, 0);

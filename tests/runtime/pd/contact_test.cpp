@@ -174,7 +174,7 @@ namespace {
     {
         State next;
         for (int s = 0; s < steps; ++s) {
-            solver.step(model, state, next, dt);
+            solver.step(model, state, next);
             std::swap(state, next);
             if (deepest)
                 *deepest = std::max(*deepest, solver.last_report().max_penetration);
@@ -207,10 +207,27 @@ namespace {
         }
     }
 
+    /// One step of `solver` with the contact stage and `contacts` (body 0 is the solver's).
+    void step_with_contacts(PdSolver& solver, ContactStage& stage, const State& in, State& out,
+        const BodyContacts& contacts)
+    {
+        solver.begin_step(in, out);
+        const std::vector<ContactBodyState> views { { &solver, &in.positions, &in.positions } };
+        stage.begin_step(views, contacts);
+        for (int i = 0; i < solver.options().iterations; ++i) {
+            solver.iterate(i);
+            stage.solve();
+            solver.finish_iteration(i);
+        }
+        stage.end_step();
+        solver.end_step();
+    }
+
     TEST(PlaneContact, NodeContactsActLikeTheGround)
     {
-        // The same ground given as one node contact per boundary node, set before every step
-        // (as the collision pipeline does), gives the same fall and rest as the ground plane.
+        // The same ground given to the contact stage as one contact per boundary node (a term
+        // of weight 1, the plane's point), set before every step as the collision pipeline
+        // does, gives the same fall and rest as the ground plane.
         const Cube cube;
         const PlaneCollider ground { Vec3(0.0, -0.05, 0.0), Vec3::UnitY(), 0.5 };
         SolverOptions with_plane;
@@ -221,15 +238,17 @@ namespace {
         SemiReducedSolver node_solver(cube.model, hard);
         const std::vector<int> boundary = boundary_nodes(cube.model.tets(), cube.model.num_nodes());
         State a = State::at_rest(cube.model), b = a, next;
+        ContactStage stage(1);
+        BodyContacts contacts;
+        for (const int node : boundary) {
+            contacts.terms.push_back(ContactTerm { 0, node, 1.0 });
+            contacts.close(ground);
+        }
         double deepest = 0.0;
         for (int s = 0; s < 60; ++s) {
-            plane_solver.step(cube.model, a, next, dt);
+            plane_solver.step(cube.model, a, next);
             std::swap(a, next);
-            std::vector<NodeContact> contacts;
-            for (const int node : boundary)
-                contacts.push_back(NodeContact { node, ground });
-            node_solver.set_node_contacts(contacts);
-            node_solver.step(cube.model, b, next, dt);
+            step_with_contacts(node_solver, stage, b, next, contacts);
             std::swap(b, next);
             deepest = std::max(deepest, node_solver.last_report().max_penetration);
         }
@@ -237,11 +256,13 @@ namespace {
         EXPECT_NEAR(b.positions.col(1).minCoeff(), -0.05, 1e-6);
         EXPECT_LT(deepest, 1e-6);
         EXPECT_GT(node_solver.last_report().active_contacts, 0);
-        // Node contacts hold for one step: without new ones the cube falls through.
-        node_solver.step(cube.model, b, next, dt);
+        // Contacts hold for one step: without new ones the cube falls through.
+        step_with_contacts(node_solver, stage, b, next, BodyContacts {});
         EXPECT_EQ(node_solver.last_report().contacts, 0);
-        const std::vector<NodeContact> bad { NodeContact { -1, ground } };
-        EXPECT_THROW(node_solver.set_node_contacts(bad), Error);
+        BodyContacts bad;
+        bad.terms.push_back(ContactTerm { 1, 0, 1.0 }); // no body 1
+        bad.close(ground);
+        EXPECT_THROW(step_with_contacts(node_solver, stage, b, next, bad), Error);
     }
 
     TEST(PlaneContact, SlidingCubeDeceleratesByCoulombFriction)

@@ -38,7 +38,7 @@ State run_steps(Solver& solver, const Model& model, State state, int steps)
 {
     State next;
     for (int s = 0; s < steps; ++s) {
-        solver.step(model, state, next, pd_dt);
+        solver.step(model, state, next);
         std::swap(state, next);
     }
     return state;

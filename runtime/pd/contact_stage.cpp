@@ -1,0 +1,424 @@
+#include "runtime/pd/contact_stage.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.hpp"
+#include "common/timer.hpp"
+#include "runtime/pd/solver.hpp"
+
+namespace mat {
+
+ContactStage::ContactStage(Index num_bodies)
+    : m_data(static_cast<std::size_t>(num_bodies))
+    , m_solvers(static_cast<std::size_t>(num_bodies), nullptr)
+{
+    m_fill = [this](Index d) { fill_column(d); };
+}
+
+void ContactStage::init_body(int b, PdSolver& solver)
+{
+    BodyData& data = m_data[static_cast<std::size_t>(b)];
+    if (data.initialized)
+        return;
+    const Model& model = solver.model();
+    const MatX3& rest = model.rest_positions();
+    const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+    data.margin = solver.options().contact_margin * diagonal;
+    const Index num_planes = static_cast<Index>(solver.options().planes.size());
+    data.previous_ground = MatX3::Zero(model.num_nodes() * num_planes, 3);
+    data.previous_pair = MatX3::Zero(model.num_nodes(), 3);
+    if (num_planes > 0)
+        data.boundary = boundary_nodes(model.tets(), model.num_nodes());
+    data.initialized = true;
+}
+
+void ContactStage::add_side(Record& record, int body, int first, int count)
+{
+    Side& side = record.sides[static_cast<std::size_t>(record.num_sides++)];
+    side.body = body;
+    side.first = first;
+    side.count = count;
+    side.slot = -1;
+}
+
+// Candidates: boundary nodes within the margin of a plane at the start of the step or at the
+// inertia target (the iterates move from s towards an equilibrium near both).
+void ContactStage::add_ground_contacts(int b, const ContactBodyState& body)
+{
+    PdSolver& solver = *body.solver;
+    const BodyData& data = m_data[static_cast<std::size_t>(b)];
+    const std::vector<PlaneCollider>& planes = solver.options().planes;
+    const MatX3& start = *body.start;
+    const MatX3& inertia = solver.inertia_target();
+    const int plane_offset = static_cast<int>(m_planes.size());
+    m_planes.insert(m_planes.end(), planes.begin(), planes.end());
+    for (const int i : data.boundary)
+        for (std::size_t p = 0; p < planes.size(); ++p) {
+            const PlaneCollider& plane = planes[p];
+            const double at_start = plane.normal.dot(start.row(i).transpose() - plane.point);
+            const double at_target = plane.normal.dot(inertia.row(i).transpose() - plane.point);
+            if (!(std::min(at_start, at_target) < data.margin))
+                continue;
+            Record record;
+            add_side(record, b, static_cast<int>(m_term_node.size()), 1);
+            m_term_node.push_back(i);
+            m_term_weight.push_back(1.0);
+            record.warm_body = b;
+            record.warm_node = i;
+            record.ground_plane = static_cast<int>(p);
+            record.start = start.row(i).transpose();
+            m_pairs.push_back(ContactPair { i, plane_offset + static_cast<int>(p) });
+            m_records.push_back(record);
+        }
+}
+
+// A contact's terms split by body: the stepped bodies' become sides (a node listed twice is
+// merged), the constant bodies' go into the plane point and the start (docs/method.md,
+// "Contact"): with r = sum_t w_t x_t over every term,
+//   n . (r - p) = n . (r_stepped - (p - r_constant)),
+//   r - r(start) = r_stepped - (r_stepped(start) - (r_constant(now) - r_constant(start))).
+void ContactStage::add_body_contacts(
+    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts)
+{
+    for (Index c = 0; c < contacts.size(); ++c) {
+        const int begin = contacts.offsets[static_cast<std::size_t>(c)];
+        const int end = contacts.offsets[static_cast<std::size_t>(c) + 1];
+        PlaneCollider plane = contacts.planes[static_cast<std::size_t>(c)];
+        Vec3 constant_motion = Vec3::Zero();
+        Record record;
+        for (int t = begin; t < end; ++t) {
+            const ContactTerm& term = contacts.terms[static_cast<std::size_t>(t)];
+            MAT_CHECK(term.body >= 0 && term.body < static_cast<int>(bodies.size()),
+                "contact stage: contact {} names body {} of {}", c, term.body, bodies.size());
+            const ContactBodyState& body = bodies[static_cast<std::size_t>(term.body)];
+            if (body.solver == nullptr) {
+                const Vec3 now = body.now->row(term.node).transpose();
+                plane.point -= term.weight * now;
+                constant_motion += term.weight * (now - body.start->row(term.node).transpose());
+                continue;
+            }
+            Side* side = nullptr;
+            for (int s = 0; s < record.num_sides; ++s)
+                if (record.sides[static_cast<std::size_t>(s)].body == term.body)
+                    side = &record.sides[static_cast<std::size_t>(s)];
+            if (side == nullptr) {
+                MAT_CHECK(record.num_sides < 2, "contact stage: contact {} spans three bodies", c);
+                add_side(record, term.body, static_cast<int>(m_term_node.size()), 0);
+                side = &record.sides[static_cast<std::size_t>(record.num_sides - 1)];
+                MAT_CHECK(side->first == static_cast<int>(m_term_node.size()),
+                    "contact stage: contact {} lists its bodies' terms interleaved", c);
+            }
+            bool merged = false;
+            for (int k = side->first; k < side->first + side->count; ++k)
+                if (m_term_node[static_cast<std::size_t>(k)] == term.node) {
+                    m_term_weight[static_cast<std::size_t>(k)] += term.weight;
+                    merged = true;
+                }
+            if (!merged) {
+                m_term_node.push_back(term.node);
+                m_term_weight.push_back(term.weight);
+                ++side->count;
+            }
+        }
+        if (record.num_sides == 0)
+            continue; // between constant bodies
+        const ContactTerm& first = contacts.terms[static_cast<std::size_t>(begin)];
+        if (bodies[static_cast<std::size_t>(first.body)].solver != nullptr) {
+            const int key = contacts.keys[static_cast<std::size_t>(c)];
+            record.warm_body = first.body;
+            record.warm_node = key >= 0 ? key : first.node;
+            MatX3& previous = m_data[static_cast<std::size_t>(first.body)].previous_pair;
+            if (record.warm_node >= previous.rows()) {
+                const Index rows = previous.rows();
+                previous.conservativeResize(record.warm_node + 1, 3);
+                previous.bottomRows(previous.rows() - rows).setZero();
+            }
+        }
+        // The start of the relative point, less the constant bodies' motion.
+        Vec3& start = record.start;
+        start = -constant_motion;
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            const MatX3& at_start = *bodies[static_cast<std::size_t>(side.body)].start;
+            for (int k = side.first; k < side.first + side.count; ++k)
+                start += m_term_weight[static_cast<std::size_t>(k)]
+                    * at_start.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
+        }
+        m_pairs.push_back(
+            ContactPair { static_cast<int>(m_records.size()), static_cast<int>(m_planes.size()) });
+        m_planes.push_back(plane);
+        m_records.push_back(record);
+    }
+}
+
+void ContactStage::begin_step(
+    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts)
+{
+    MAT_CHECK(bodies.size() == m_data.size(), "contact stage: {} bodies for {}", bodies.size(),
+        m_data.size());
+    m_records.clear();
+    m_term_node.clear();
+    m_term_weight.clear();
+    m_planes.clear();
+    m_pairs.clear();
+    m_settings = ContactSettings {};
+    bool first_solver = true;
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        m_solvers[b] = bodies[b].solver;
+        if (bodies[b].solver == nullptr)
+            continue;
+        init_body(static_cast<int>(b), *bodies[b].solver);
+        const ContactSettings& settings = bodies[b].solver->options().contact;
+        m_settings.max_sweeps = first_solver ? settings.max_sweeps
+                                             : std::max(m_settings.max_sweeps, settings.max_sweeps);
+        m_settings.tolerance = first_solver ? settings.tolerance
+                                            : std::min(m_settings.tolerance, settings.tolerance);
+        first_solver = false;
+    }
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+        if (bodies[b].solver != nullptr && !bodies[b].solver->options().planes.empty())
+            add_ground_contacts(static_cast<int>(b), bodies[b]);
+    const Index ground = static_cast<Index>(m_records.size());
+    add_body_contacts(bodies, contacts);
+    for (std::size_t a = static_cast<std::size_t>(ground); a < m_records.size(); ++a) {
+        // Contacts between bodies are compliant (PdSolver's node_contact_compliance).
+        const Side& side = m_records[a].sides[0];
+        m_planes[static_cast<std::size_t>(m_pairs[a].plane)].compliance
+            = m_solvers[static_cast<std::size_t>(side.body)]->options().node_contact_compliance;
+    }
+
+    const Index m = static_cast<Index>(m_records.size());
+    if (m_coupling.rows() != m || m_free.rows() != m) {
+        m_coupling.resize(m, m);
+        m_free.resize(m, 3);
+        m_start.resize(m, 3);
+        m_forces.resize(m, 3);
+        m_positions.resize(m, 3);
+    }
+    for (Index a = 0; a < m; ++a)
+        m_start.row(a) = m_records[static_cast<std::size_t>(a)].start.transpose();
+    prepare_responses(bodies);
+    // Only the diagonal now: a column is computed when its contact first pushes.
+    m_column_ready.assign(static_cast<std::size_t>(m), 0);
+    for (Index a = 0; a < m; ++a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        double sum = 0.0;
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            double scale = 1.0;
+            const auto z = response(side, scale);
+            sum += scale * side_apply(side, z);
+        }
+        m_coupling(a, a) = sum;
+    }
+    // Warm start: the last step's forces; then forget them, so that a contact that drops out
+    // and comes back later does not start from a stale force (end_step writes the current ones).
+    for (Index a = 0; a < m; ++a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        m_forces.row(a).setZero();
+        if (record.warm_body < 0)
+            continue;
+        const BodyData& data = m_data[static_cast<std::size_t>(record.warm_body)];
+        const Index planes = static_cast<Index>(
+            m_solvers[static_cast<std::size_t>(record.warm_body)]->options().planes.size());
+        m_forces.row(a) = record.ground_plane >= 0
+            ? data.previous_ground.row(record.warm_node * planes + record.ground_plane)
+            : data.previous_pair.row(record.warm_node);
+    }
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
+        BodyData& data = m_data[b];
+        if (m_solvers[b] == nullptr)
+            continue;
+        const Index planes = static_cast<Index>(m_solvers[b]->options().planes.size());
+        for (const auto& [node, plane] : data.used) {
+            if (plane >= 0)
+                data.previous_ground.row(node * planes + plane).setZero();
+            else
+                data.previous_pair.row(node).setZero();
+        }
+        data.used.clear();
+    }
+    m_sweeps = 0;
+}
+
+void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies)
+{
+    // Each stepped body's nodes with a term, sorted: their responses z_j.
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        m_data[b].nodes.clear();
+        m_data[b].pool_used = 0;
+    }
+    for (Record& record : m_records)
+        for (int s = 0; s < record.num_sides; ++s) {
+            Side& side = record.sides[static_cast<std::size_t>(s)];
+            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
+            for (int k = side.first; k < side.first + side.count; ++k)
+                data.nodes.push_back(m_term_node[static_cast<std::size_t>(k)]);
+            if (side.count > 1)
+                side.slot = data.pool_used++;
+        }
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        if (bodies[b].solver == nullptr)
+            continue;
+        BodyData& data = m_data[b];
+        std::sort(data.nodes.begin(), data.nodes.end());
+        data.nodes.erase(std::unique(data.nodes.begin(), data.nodes.end()), data.nodes.end());
+        GlobalStep& global = bodies[b].solver->global_step();
+        global.prepare_nodes(data.nodes);
+        if (data.pool_used > data.responses.cols())
+            data.responses.resize(
+                global.response_size(), std::max<Index>(data.pool_used, 2 * data.responses.cols()));
+    }
+    // A side with several terms: sum_t w_t z_t.
+    for (const Record& record : m_records)
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            if (side.slot < 0)
+                continue;
+            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
+            const GlobalStep& global
+                = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+            auto column = data.responses.col(side.slot);
+            column.setZero();
+            for (int k = side.first; k < side.first + side.count; ++k)
+                column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
+                    * global.node_response(m_term_node[static_cast<std::size_t>(k)]);
+        }
+}
+
+Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale) const
+{
+    if (side.slot >= 0) {
+        scale = 1.0;
+        return m_data[static_cast<std::size_t>(side.body)].responses.col(side.slot);
+    }
+    scale = m_term_weight[static_cast<std::size_t>(side.first)];
+    return m_solvers[static_cast<std::size_t>(side.body)]->global_step().node_response(
+        m_term_node[static_cast<std::size_t>(side.first)]);
+}
+
+double ContactStage::side_apply(const Side& side, const Eigen::Ref<const VecX>& z) const
+{
+    const GlobalStep& global = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+    double sum = 0.0;
+    for (int k = side.first; k < side.first + side.count; ++k)
+        sum += m_term_weight[static_cast<std::size_t>(k)]
+            * global.apply(m_term_node[static_cast<std::size_t>(k)], z);
+    return sum;
+}
+
+Vec3 ContactStage::side_position(const Side& side) const
+{
+    const GlobalStep& global = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+    Vec3 x = Vec3::Zero();
+    for (int k = side.first; k < side.first + side.count; ++k)
+        x += m_term_weight[static_cast<std::size_t>(k)]
+            * global.node_position(m_term_node[static_cast<std::size_t>(k)]);
+    return x;
+}
+
+// W_cd = sum over the bodies of both: J_c D J_d^T.
+void ContactStage::fill_column(Index d)
+{
+    const Record& record_d = m_records[static_cast<std::size_t>(d)];
+    const Index m = static_cast<Index>(m_records.size());
+    for (Index c = 0; c < m; ++c)
+        m_coupling(c, d) = 0.0;
+    for (int sd = 0; sd < record_d.num_sides; ++sd) {
+        const Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
+        double scale = 1.0;
+        const auto z = response(side_d, scale);
+        for (Index c = 0; c < m; ++c) {
+            const Record& record_c = m_records[static_cast<std::size_t>(c)];
+            for (int sc = 0; sc < record_c.num_sides; ++sc) {
+                const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
+                if (side_c.body == side_d.body)
+                    m_coupling(c, d) += scale * side_apply(side_c, z);
+            }
+        }
+    }
+}
+
+void ContactStage::solve()
+{
+    const Index m = static_cast<Index>(m_records.size());
+    if (m == 0)
+        return;
+    Timer timer;
+    for (Index a = 0; a < m; ++a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        Vec3 x = Vec3::Zero();
+        for (int s = 0; s < record.num_sides; ++s)
+            x += side_position(record.sides[static_cast<std::size_t>(s)]);
+        m_free.row(a) = x.transpose();
+    }
+    const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready, m_fill,
+        m_planes, m_pairs, m_free, m_start, m_forces, m_positions, m_settings, m_scratch);
+    m_sweeps += result.sweeps;
+    for (Index a = 0; a < m; ++a) {
+        if (!(m_forces.row(a).squaredNorm() > 0.0))
+            continue;
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            double scale = 1.0;
+            const auto z = response(side, scale);
+            m_solvers[static_cast<std::size_t>(side.body)]->global_step().add_response(
+                z, scale * m_forces.row(a));
+        }
+    }
+    // The solve's time goes to the stepped bodies in equal shares.
+    int stepped = 0;
+    for (const PdSolver* solver : m_solvers)
+        stepped += solver != nullptr ? 1 : 0;
+    const double share = timer.seconds() / std::max(stepped, 1);
+    for (PdSolver* solver : m_solvers)
+        if (solver != nullptr)
+            solver->add_contact_seconds(share);
+}
+
+void ContactStage::end_step()
+{
+    for (PdSolver* solver : m_solvers)
+        if (solver != nullptr) {
+            solver->report().contacts = 0;
+            solver->report().active_contacts = 0;
+            solver->report().contact_sweeps = m_sweeps;
+            solver->report().max_penetration = 0.0;
+        }
+    const Index m = static_cast<Index>(m_records.size());
+    for (Index a = 0; a < m; ++a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        if (record.warm_body >= 0) {
+            BodyData& data = m_data[static_cast<std::size_t>(record.warm_body)];
+            const Index planes = static_cast<Index>(
+                m_solvers[static_cast<std::size_t>(record.warm_body)]->options().planes.size());
+            if (record.ground_plane >= 0)
+                data.previous_ground.row(record.warm_node * planes + record.ground_plane)
+                    = m_forces.row(a);
+            else
+                data.previous_pair.row(record.warm_node) = m_forces.row(a);
+            data.used.push_back({ record.warm_node, record.ground_plane });
+        }
+        // The relative point at the end of the step, from the bodies' positions.
+        Vec3 x = Vec3::Zero();
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            const MatX3& positions
+                = m_solvers[static_cast<std::size_t>(side.body)]->step_positions();
+            for (int k = side.first; k < side.first + side.count; ++k)
+                x += m_term_weight[static_cast<std::size_t>(k)]
+                    * positions.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
+        }
+        const PlaneCollider& plane = m_planes[static_cast<std::size_t>(m_pairs[a].plane)];
+        StepReport& report = m_solvers[static_cast<std::size_t>(record.sides[0].body)]->report();
+        ++report.contacts;
+        if (m_forces.row(a).squaredNorm() > 0.0)
+            ++report.active_contacts;
+        report.max_penetration
+            = std::max(report.max_penetration, -plane.normal.dot(x - plane.point));
+    }
+}
+
+} // namespace mat

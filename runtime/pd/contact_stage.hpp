@@ -1,0 +1,174 @@
+#pragma once
+// The contact solve as one stage of the step over all bodies (docs/method.md, "Contact").
+//
+// Every contact is a constraint on a relative point of one or two bodies,
+//   r = sum_t w_t x_t          (terms: a node of a body and a weight),
+//   gap = n . (r - p) >= 0,    Coulomb friction on r's tangential displacement since the step
+//   start:
+// a node against a ground plane is one term (w = 1, p on the plane); a node of body A against a
+// point of body B's surface is the node (w = 1) and the point's nodes with minus its weights
+// (p = 0), so one force f acts as +f on A and -f on B (Newton's third law: the total momentum
+// does not change), and friction acts on the motion of A relative to B's surface. The terms of a
+// body that is not stepped (static, kinematic, asleep) are constants: they go into p, and its
+// motion over the step into the start of r (friction against a moving collider).
+//
+// The forces are solved between the bodies' global steps and their positions, in every
+// iteration (Moreau-Jean non-smooth contact dynamics; runtime/pd/contact.hpp): the global step is
+// linear, so forces f_d move the relative points by W_cd f_d with the Delassus operator
+//   W_cd = sum over bodies b of J_cb D_b J_db^T,
+// D_b body b's compliance (its global step's response, GlobalStep) and J_cb the weights of
+// contact c's terms on b. W is isotropic (D acts alike on x, y and z). The projected Gauss-Seidel
+// solve of runtime/pd/contact.hpp then runs on the relative points unchanged; a column of W is
+// computed when its contact first pushes. A contact with several terms on a body keeps the
+// body's response to it, sum_t w_t z_t (a vector of the body's response size).
+
+#include <array>
+#include <functional>
+#include <vector>
+
+#include "common/eigen_types.hpp"
+#include "runtime/pd/contact.hpp"
+
+namespace mat {
+
+class PdSolver;
+
+/// One node's share of a contact's relative point.
+struct ContactTerm {
+    int body = 0;
+    int node = 0;
+    double weight = 0.0;
+    bool operator==(const ContactTerm& o) const
+    {
+        return body == o.body && node == o.node && weight == o.weight;
+    }
+};
+
+/// Contacts between bodies for one step: constraint c has the terms [offsets[c], offsets[c+1])
+/// and its plane (normal, point p of the relative point, friction, compliance).
+struct BodyContacts {
+    std::vector<ContactTerm> terms;
+    std::vector<int> offsets { 0 };
+    std::vector<PlaneCollider> planes;
+    /// Per constraint, an index >= 0 unique among the constraints whose first term is on the
+    /// same body, by which the next step's constraint is warm started with this one's force (a
+    /// surface vertex); -1: the first term's node.
+    std::vector<int> keys;
+
+    void clear()
+    {
+        terms.clear();
+        offsets.assign(1, 0);
+        planes.clear();
+        keys.clear();
+    }
+    Index size() const { return static_cast<Index>(planes.size()); }
+    /// The body of contact c's first term (the node a collision contact is for).
+    int first_body(Index c) const { return terms[static_cast<std::size_t>(offsets[c])].body; }
+    /// Contacts whose first term is on `body`.
+    Index count_for(int body) const
+    {
+        Index count = 0;
+        for (Index c = 0; c < size(); ++c)
+            count += first_body(c) == body ? 1 : 0;
+        return count;
+    }
+    /// Closes the constraint made of the terms added since the last one.
+    void close(const PlaneCollider& plane, int key = -1)
+    {
+        offsets.push_back(static_cast<int>(terms.size()));
+        planes.push_back(plane);
+        keys.push_back(key);
+    }
+};
+
+/// One body as the stage sees it during a step.
+struct ContactBodyState {
+    /// Its solver, if it is stepped this step (its begin_step() has run); null: a constant body.
+    PdSolver* solver = nullptr;
+    /// n x 3 positions at the start of the step and, for a constant body, during it (a
+    /// kinematic body has moved to its end-of-step place already).
+    const MatX3* start = nullptr;
+    const MatX3* now = nullptr;
+};
+
+class ContactStage {
+public:
+    /// `num_bodies` bodies, numbered as in the terms.
+    explicit ContactStage(Index num_bodies);
+
+    /// Builds this step's constraints: every stepped body's ground contacts (its boundary nodes
+    /// within its contact margin of a plane of its solver at the start of the step or at the
+    /// inertia target) and `contacts`, then each body's responses and the warm start (the last
+    /// step's force of the same ground pair, or of a contact at the same first node).
+    void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
+    /// After every stepped body's global solve of one iteration: solves the forces and adds
+    /// their displacements to the bodies' global steps.
+    void solve();
+    /// After the last iteration's positions: each stepped body's StepReport (contacts of which
+    /// it holds the first term, the sweeps, the deepest penetration at the end of the step) and
+    /// the warm start of the next step.
+    void end_step();
+
+    Index num_contacts() const { return static_cast<Index>(m_records.size()); }
+    /// The contact forces of the last solve  #contacts x 3 (on the first term's side).
+    const MatX3& forces() const { return m_forces; }
+
+private:
+    /// A contact's terms on one stepped body.
+    struct Side {
+        int body = -1;
+        int first = 0; ///< into m_term_node / m_term_weight
+        int count = 0;
+        int slot = -1; ///< its response's column in the body's pool; -1: one term (node response)
+    };
+    struct Record {
+        int num_sides = 0;
+        std::array<Side, 2> sides;
+        int warm_body = -1; ///< the body and node (or key) of its warm start (-1: none)
+        int warm_node = 0;
+        int ground_plane = -1; ///< a ground contact's plane in its body's solver, else -1
+        Vec3 start = Vec3::Zero(); ///< the relative point at the step start (see add_body_contacts)
+    };
+    struct BodyData {
+        bool initialized = false;
+        std::vector<int> boundary; ///< boundary nodes (ground candidates)
+        double margin = 0.0; ///< absolute ground candidate distance
+        MatX3 previous_ground; ///< #nodes * #planes x 3: last step's ground forces
+        MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)
+        std::vector<std::array<int, 2>> used; ///< (node, plane or -1) warm starts read
+        std::vector<int> nodes; ///< this step's nodes with a response
+        MatX responses; ///< pool of multi-term responses, one column each
+        int pool_used = 0;
+    };
+
+    void init_body(int b, PdSolver& solver);
+    void add_ground_contacts(int b, const ContactBodyState& body);
+    void add_body_contacts(
+        const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
+    void add_side(Record& record, int body, int first, int count);
+    void prepare_responses(const std::vector<ContactBodyState>& bodies);
+    /// The side's response (pool column or node response) and the scale of its single term.
+    Eigen::Ref<const VecX> response(const Side& side, double& scale) const;
+    /// J_cb D_b applied to a response of the same body: sum_t w_t apply(node_t, response).
+    double side_apply(const Side& side, const Eigen::Ref<const VecX>& response) const;
+    Vec3 side_position(const Side& side) const;
+    void fill_column(Index d);
+
+    std::vector<BodyData> m_data;
+    std::vector<PdSolver*> m_solvers; ///< this step's, per body (null: constant)
+    std::vector<Record> m_records;
+    std::vector<int> m_term_node;
+    std::vector<double> m_term_weight;
+    std::vector<PlaneCollider> m_planes;
+    std::vector<ContactPair> m_pairs; ///< (contact, its plane) for the Gauss-Seidel solve
+    MatX m_coupling; ///< W  m x m, columns on demand
+    std::vector<char> m_column_ready;
+    std::function<void(Index)> m_fill;
+    MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3
+    ContactScratch m_scratch;
+    ContactSettings m_settings;
+    int m_sweeps = 0;
+};
+
+} // namespace mat
