@@ -111,7 +111,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         data.partners.clear();
         data.self_pairs.clear();
     }
-    // Each primitive's region: the union of its pairs' regions grown by the margin.
+    // Each primitive's region: the union of its pairs' regions, grown.
     const auto extend = [&](int body, int primitive, const Box3& region) {
         BodyData& data = m_bodies[static_cast<std::size_t>(body)];
         const std::size_t p = static_cast<std::size_t>(primitive);
@@ -124,7 +124,10 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         }
     };
     for (const PrimitivePairRef& pair : pairs) {
-        const Box3 region(pair.region.min().array() - margin, pair.region.max().array() + margin);
+        // Grown by the margin and by how far the two bodies' nodes may move in the step.
+        const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
+            + bodies[static_cast<std::size_t>(pair.body_b)].motion;
+        const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
         if (region.isEmpty())
             continue;
         extend(pair.body_a, pair.primitive_a, region);
@@ -367,11 +370,7 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
     const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
 {
     prepare(bodies);
-    // Regions grow by the margin and the farthest any two bodies' nodes may move in the step.
-    double motion = 0.0;
-    for (const NarrowPhaseBody& body : bodies)
-        motion = std::max(motion, body.motion);
-    activate(bodies, pairs, margin + 2.0 * motion);
+    activate(bodies, pairs, margin);
     if (m_scratch.size() < static_cast<std::size_t>(work_chunks))
         m_scratch.resize(work_chunks);
     // visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
@@ -447,9 +446,12 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         bool found = false;
         for (const int bf : data.partners) {
             const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
-            // Within the margin, or within reach of the two bodies' motion in the step.
+            // Within the margin (plus what gravity adds in a step against a body that does
+            // not fall: both dynamic bodies fall alike), or within reach of the node's approach
+            // in the step: at most its own speed and the other body's motion bound.
+            const double near = margin + (data_body.is_static != other.is_static ? extra : 0.0);
             const double reach
-                = margin + bodies[static_cast<std::size_t>(bn)].motion + other.motion;
+                = near + lookahead * node_velocity(data_body, item.index).norm() + other.motion;
             overlapping(bf, item.box, reach, [&](int f) {
                 if (bf == bn) {
                     if (other.nodes_are_vertices
@@ -465,12 +467,26 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                 const Vec3 p2 = corner(other, f, 2);
                 const Vec3 n = (p1 - p0).cross(p2 - p0);
                 const double length = n.norm();
-                // In front of the triangle's plane by the margin or more: so is its
-                // closest point (which lies in the plane), and the node is no candidate.
-                if (length > 0.0 && n.dot(x - p0) >= reach * length)
-                    return;
-                const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
                 const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+                const Vec3 v_node = node_velocity(data_body, item.index);
+                // In front of the triangle's plane by the reach or more, or by more than the
+                // node can close at its fastest approach to a corner (the closest point's
+                // velocity lies between the corners'): so is its closest point (which is at
+                // least as far), and the node is no candidate.
+                if (length > 0.0) {
+                    const double plane = unit.dot(x - p0);
+                    if (plane >= reach)
+                        return;
+                    if (plane >= near) {
+                        double approach = 0.0;
+                        for (int c = 0; c < 3; ++c)
+                            approach = std::max(approach,
+                                -unit.dot(v_node - node_velocity(other, (*other.faces)(f, c))));
+                        if (plane >= near + lookahead * approach)
+                            return;
+                    }
+                }
+                const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
                 const double distance = std::sqrt(closest.squared_distance);
                 const double signed_distance
                     = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
@@ -486,14 +502,13 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                 } else if (signed_distance >= reach) {
                     return;
                 }
-                if (signed_distance >= margin + extra) {
-                    const Vec3 v_node = node_velocity(data_body, item.index);
+                if (signed_distance >= near) {
                     Vec3 v_point = Vec3::Zero();
                     for (int c = 0; c < 3; ++c)
                         v_point
                             += closest.barycentric(c) * node_velocity(other, (*other.faces)(f, c));
                     const double approach = std::max(0.0, -unit.dot(v_node - v_point));
-                    if (signed_distance >= margin + extra + lookahead * approach)
+                    if (signed_distance >= near + lookahead * approach)
                         return;
                 }
                 const double d = std::abs(signed_distance);

@@ -270,7 +270,20 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
             data.responses.resize(
                 global.response_size(), std::max<Index>(data.pool_used, 2 * data.responses.cols()));
     }
-    // A side with several terms: sum_t w_t z_t.
+    // Each side's direction; a side with several terms keeps its response sum_t w_t z_t.
+    m_dir_index.clear();
+    m_dir_value.clear();
+    for (Record& record : m_records)
+        for (int s = 0; s < record.num_sides; ++s) {
+            Side& side = record.sides[static_cast<std::size_t>(s)];
+            BodyData& body = m_data[static_cast<std::size_t>(side.body)];
+            const GlobalStep& step = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+            body.slots.resize(static_cast<std::size_t>(step.response_size()), -1);
+            side.dir_first = static_cast<int>(m_dir_index.size());
+            step.direction(m_term_node.data() + side.first, m_term_weight.data() + side.first,
+                side.count, m_dir_index, m_dir_value, side.offset, body.slots);
+            side.dir_count = static_cast<int>(m_dir_index.size()) - side.dir_first;
+        }
     for (const Record& record : m_records)
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
@@ -300,22 +313,18 @@ Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale) c
 
 double ContactStage::side_apply(const Side& side, const Eigen::Ref<const VecX>& z) const
 {
-    const GlobalStep& global = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
     double sum = 0.0;
-    for (int k = side.first; k < side.first + side.count; ++k)
-        sum += m_term_weight[static_cast<std::size_t>(k)]
-            * global.apply(m_term_node[static_cast<std::size_t>(k)], z);
+    for (int i = side.dir_first; i < side.dir_first + side.dir_count; ++i)
+        sum += m_dir_value[static_cast<std::size_t>(i)]
+            * z(m_dir_index[static_cast<std::size_t>(i)]);
     return sum;
 }
 
 Vec3 ContactStage::side_position(const Side& side) const
 {
-    const GlobalStep& global = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
-    Vec3 x = Vec3::Zero();
-    for (int k = side.first; k < side.first + side.count; ++k)
-        x += m_term_weight[static_cast<std::size_t>(k)]
-            * global.node_position(m_term_node[static_cast<std::size_t>(k)]);
-    return x;
+    return m_solvers[static_cast<std::size_t>(side.body)]->global_step().position(
+        m_dir_index.data() + side.dir_first, m_dir_value.data() + side.dir_first, side.dir_count,
+        side.offset);
 }
 
 // W_cd = sum over the bodies of both: J_c D J_d^T.

@@ -121,6 +121,9 @@ private:
         int first = 0; ///< into m_term_node / m_term_weight
         int count = 0;
         int slot = -1; ///< its response's column in the body's pool; -1: one term (node response)
+        int dir_first = 0; ///< its direction (GlobalStep::direction) in m_dir_index / m_dir_value
+        int dir_count = 0;
+        Vec3 offset = Vec3::Zero();
     };
     struct Record {
         int num_sides = 0;
@@ -140,6 +143,7 @@ private:
         std::vector<int> nodes; ///< this step's nodes with a response
         MatX responses; ///< pool of multi-term responses, one column each
         int pool_used = 0;
+        std::vector<int> slots; ///< GlobalStep::direction's scratch
     };
 
     void init_body(int b, PdSolver& solver);
@@ -150,7 +154,7 @@ private:
     void prepare_responses(const std::vector<ContactBodyState>& bodies);
     /// The side's response (pool column or node response) and the scale of its single term.
     Eigen::Ref<const VecX> response(const Side& side, double& scale) const;
-    /// J_cb D_b applied to a response of the same body: sum_t w_t apply(node_t, response).
+    /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const Eigen::Ref<const VecX>& response) const;
     Vec3 side_position(const Side& side) const;
     void fill_column(Index d);
@@ -160,6 +164,8 @@ private:
     std::vector<Record> m_records;
     std::vector<int> m_term_node;
     std::vector<double> m_term_weight;
+    std::vector<int> m_dir_index;
+    std::vector<double> m_dir_value;
     std::vector<PlaneCollider> m_planes;
     std::vector<ContactPair> m_pairs; ///< (contact, its plane) for the Gauss-Seidel solve
     MatX m_coupling; ///< W  m x m, columns on demand

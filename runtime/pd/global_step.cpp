@@ -190,6 +190,39 @@ double ReducedGlobalStep::apply(int node, const Eigen::Ref<const VecX>& response
     return sum;
 }
 
+void ReducedGlobalStep::direction(const int* nodes, const double* weights, int count,
+    std::vector<int>& index, std::vector<double>& value, Vec3& offset,
+    std::vector<int>& slots) const
+{
+    // sum_t w_t (X_t + b_t q): the rest part, and the basis rows merged.
+    const std::size_t first = index.size();
+    offset.setZero();
+    for (int t = 0; t < count; ++t) {
+        offset += weights[t] * m_model.rest_positions().row(nodes[t]).transpose();
+        for (SparseRowMatrix::InnerIterator it(m_model.basis(), nodes[t]); it; ++it) {
+            const int column = static_cast<int>(it.index());
+            if (slots[column] < 0) {
+                slots[column] = static_cast<int>(index.size());
+                index.push_back(column);
+                value.push_back(weights[t] * it.value());
+            } else {
+                value[static_cast<std::size_t>(slots[column])] += weights[t] * it.value();
+            }
+        }
+    }
+    for (std::size_t i = first; i < index.size(); ++i)
+        slots[index[i]] = -1;
+}
+
+Vec3 ReducedGlobalStep::position(
+    const int* index, const double* value, int count, const Vec3& offset) const
+{
+    Eigen::RowVector3d x = offset.transpose();
+    for (int i = 0; i < count; ++i)
+        x += value[i] * m_q.row(index[i]);
+    return x.transpose();
+}
+
 void ReducedGlobalStep::add_response(
     const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
 {
@@ -236,6 +269,26 @@ void FullGlobalStep::prepare_nodes(const std::vector<int>& nodes)
         m_cholesky.solve_in_place(unit);
         m_cache.column(node) = unit.col(0);
     }
+}
+
+void FullGlobalStep::direction(const int* nodes, const double* weights, int count,
+    std::vector<int>& index, std::vector<double>& value, Vec3& offset,
+    std::vector<int>& /*slots*/) const
+{
+    offset.setZero();
+    for (int t = 0; t < count; ++t) {
+        index.push_back(nodes[t]);
+        value.push_back(weights[t]);
+    }
+}
+
+Vec3 FullGlobalStep::position(
+    const int* index, const double* value, int count, const Vec3& offset) const
+{
+    Vec3 x = offset;
+    for (int i = 0; i < count; ++i)
+        x += value[i] * m_x.row(index[i]).transpose();
+    return x;
 }
 
 void FullGlobalStep::add_response(

@@ -66,6 +66,17 @@ public:
     virtual void add_response(
         const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
         = 0;
+    /// A point carried by nodes, x = sum_t weights_t x_{nodes_t}, as a sparse row over the
+    /// response space: x = offset + sum_i value_i u_i (u the kept solution's rows: q reduced, x
+    /// full), and D applied to a response z is sum_i value_i z_i. Appends (index, value) pairs
+    /// in the order of the nodes' rows; `slots` (response_size(), all -1) is scratch, returned
+    /// all -1.
+    virtual void direction(const int* nodes, const double* weights, int count,
+        std::vector<int>& index, std::vector<double>& value, Vec3& offset,
+        std::vector<int>& slots) const = 0;
+    /// The point of a direction in the kept solution.
+    virtual Vec3 position(
+        const int* index, const double* value, int count, const Vec3& offset) const = 0;
     /// The kept reduced coordinates q  k x 3, or null for a full-space step.
     virtual const MatX* reduced_coordinates() const { return nullptr; }
     /// Writes the kept solution's positions  n x 3.
@@ -112,6 +123,10 @@ public:
     void add_response(
         const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
     const MatX* reduced_coordinates() const override { return &m_q; }
+    void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
+        std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
+    Vec3 position(
+        const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
     void solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings);
@@ -154,6 +169,10 @@ public:
     }
     void add_response(
         const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
+    void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
+        std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
+    Vec3 position(
+        const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
 
 private:
