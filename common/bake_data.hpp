@@ -3,8 +3,8 @@
 // it, and the runtime builds its immutable Model from it. The runtime recomputes nothing from
 // here but the factorizations for its own time step and material.
 //
-// Notation (METHOD.md section 2): n tet-mesh nodes, T tets, m handles, k scalar basis columns
-// (4 per linear handle, 10 per quadratic one), so r = 3k reduced DOF and U = B (x) I3.
+// Notation (docs/method.md, section 2): n tet-mesh nodes, T tets, m handles, k scalar basis
+// columns (4 per linear handle, 10 per quadratic one), so r = 3k reduced DOF and U = B (x) I3.
 
 #include <string>
 #include <vector>
@@ -22,8 +22,8 @@ using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 enum class PrimitiveKind : int { sphere = 0, cone = 1, slab = 2 };
 
 /// Per-primitive data that keeps the deformed medial mesh enclosing the deformed surface
-/// (METHOD.md section 4). Primitives are numbered: the cones, then the slabs, then the spheres
-/// that no cone or slab uses.
+/// (docs/method.md, section 2, step 7, and section 4). Primitives are numbered: the cones, then
+/// the slabs, then the spheres that no cone or slab uses.
 struct MedialCollisionData {
     VecXi primitive_kind; ///< #P, a PrimitiveKind
     MatX3i primitive_spheres; ///< #P x 3 sphere indices, -1 where unused (cones: 2, spheres: 1)

@@ -1,5 +1,5 @@
 #pragma once
-// Medial primitives (METHOD.md section 1): a sphere; a cone, the linear interpolation of 2
+// Medial primitives (docs/method.md, section 1): a sphere; a cone, the linear interpolation of 2
 // spheres; a slab, the barycentric interpolation of 3 spheres. The volume of a primitive is the
 // union of its interpolated spheres, which equals the convex hull of its 2 or 3 spheres. The
 // envelope of a medial mesh is the union of all its primitives and of the spheres no primitive

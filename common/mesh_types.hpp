@@ -25,7 +25,7 @@ struct TetMesh {
 };
 
 /// A medial mesh: spheres (center, radius) joined by cones (2 spheres) and slabs (3 spheres).
-/// Primitives interpolate linearly between their spheres (METHOD.md section 1).
+/// Primitives interpolate linearly between their spheres (docs/method.md, section 1).
 struct MedialMesh {
     MatX3 centers; ///< #S x 3 sphere centers
     VecX radii; ///< #S sphere radii, > 0

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # make_charts.sh [BUILD_DIR]
 # Speed against accuracy: regenerates docs/charts/SCENE.svg (error against milliseconds per step,
-# log-log, one series per method) and the results table in README.md (between the markers
-# <!-- charts:begin --> and <!-- charts:end -->).
+# log-log, one series per method) and the results table in docs/benchmarks.md (between the
+# markers <!-- charts:begin --> and <!-- charts:end -->).
 #
 # For each scene docs/charts/SCENE.json (a stiff cantilever, a soft drop on the ground, a
 # twisting limb) it bakes the scene's surface with several handle counts, linear and quadratic
@@ -155,16 +155,16 @@ done
 mv "$csv.tmp" "$csv"
 fi
 
-# The charts and the table; the table replaces the README's between the markers.
+# The charts and the table; the table replaces docs/benchmarks.md's between the markers.
 "$chart" "$csv" "$root/docs/charts" "$work/table.md" \
     --note "reference: full-space PD at $REF_ITERATIONS iterations per step; ms per step with $threads thread(s)"
-readme="$root/README.md"
-grep -q '^<!-- charts:begin -->$' "$readme" && grep -q '^<!-- charts:end -->$' "$readme" \
-    || { echo "make_charts: $readme has no <!-- charts:begin --> / <!-- charts:end --> lines" >&2; exit 1; }
+doc="$root/docs/benchmarks.md"
+grep -q '^<!-- charts:begin -->$' "$doc" && grep -q '^<!-- charts:end -->$' "$doc" \
+    || { echo "make_charts: $doc has no <!-- charts:begin --> / <!-- charts:end --> lines" >&2; exit 1; }
 awk -v table="$work/table.md" '
     /^<!-- charts:begin -->$/ { print; while ((getline line < table) > 0) print line; skip = 1; next }
     /^<!-- charts:end -->$/ { skip = 0 }
     !skip { print }
-' "$readme" > "$readme.tmp"
-mv "$readme.tmp" "$readme"
-echo "make_charts: wrote docs/charts/*.svg, $csv and the README table in $(( $(date +%s) - start_all )) s"
+' "$doc" > "$doc.tmp"
+mv "$doc.tmp" "$doc"
+echo "make_charts: wrote docs/charts/*.svg, $csv and the table in docs/benchmarks.md in $(( $(date +%s) - start_all )) s"

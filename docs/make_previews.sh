@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # make_previews.sh [MAT_RUN]
-# Renders the README's preview pictures, docs/previews/NAME.png (480x360), one per sample: runs
-# each sample scene on its bake for a few frames with `mat-run --preview` in a scratch directory
-# and keeps the last frame. A sample whose bake is missing (samples/NAME/*.h5: run
-# `make -C samples` first) is skipped with a note.
+# Renders the preview pictures of docs/mat-run.md and the README, docs/previews/NAME.png
+# (480x360), one per sample: runs each sample scene on its bake for a few frames with
+# `mat-run --preview` in a scratch directory and keeps the last frame. A sample whose bake is
+# missing (samples/NAME/*.h5: run `make -C samples` first) is skipped with a note.
 #   docs/make_previews.sh                        uses build/runtime/mat-run
 #   docs/make_previews.sh build-release/runtime/mat-run
 #   THREADS=1 docs/make_previews.sh             one thread (default: all)

@@ -1,5 +1,5 @@
 #pragma once
-// Medial mesh files (.ma), in both dialects of METHOD.md section 1:
+// Medial mesh files (.ma), in both dialects of docs/method.md, section 1:
 //   Q-MAT:       header `nv ne nf`, records `v x y z r`, `e i j`, `f i j k`. The edge list also
 //                holds every edge of every face: slabs = faces, cones = edges on no face.
 //   the paper's: header `nv nc ns`, records `v x y z r`, `c i j` (cones), `s i j k` (slabs).

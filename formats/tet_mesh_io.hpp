@@ -6,8 +6,9 @@
 //   TetGen `.node`/`.ele`: `.node` = `#P 3 #attributes #markers`, then `id x y z [attr] [marker]`;
 //     `.ele` = `#T 4|10 #attributes`, then `id i j k l [...]`. Numbering is 0- or 1-based as the
 //     first point's id says; attributes, boundary markers and quadratic nodes are skipped.
-// Readers return positively oriented tets (METHOD: det[x1-x0, x2-x0, x3-x0] > 0): a tet read
-// with negative orientation has its last two indices swapped, and the count is logged.
+// Readers return positively oriented tets (det[x1-x0, x2-x0, x3-x0] > 0, as in docs/method.md,
+// section 2, step 1): a tet read with negative orientation has its last two indices swapped, and
+// the count is logged.
 
 #include <string>
 #include <string_view>

@@ -1,5 +1,5 @@
 #pragma once
-// The immutable simulation model built from a bake (METHOD.md section 3): material weights,
+// The immutable simulation model built from a bake (docs/method.md, section 3): material weights,
 // masses, pins, and the projective dynamics system matrices for one time step, the reduced one
 // prefactored. Knows nothing of files: build it from a BakeData (formats/bake_io reads one).
 //

@@ -28,6 +28,11 @@ namespace mat {
 
 namespace {
 
+    nlohmann::json vector_json(const Vec3& v)
+    {
+        return { v.x(), v.y(), v.z() };
+    }
+
     /// Phase totals of all bodies' solvers.
     SolverTimings total_timings(const Simulation& simulation)
     {
@@ -264,6 +269,7 @@ void run_simulation(const RunOptions& options)
         = [&](int frame, const std::vector<StepReport>& reports, double step_seconds) {
               Timer timer;
               nlohmann::json bodies = nlohmann::json::array();
+              Vec3 momentum = Vec3::Zero();
               if (measure) {
                   for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
                       const Body& body = simulation.bodies()[b];
@@ -274,12 +280,14 @@ void run_simulation(const RunOptions& options)
                               { { "kinetic", m.kinetic }, { "potential", m.potential },
                                   { "elastic", m.elastic },
                                   { "total", m.kinetic + m.potential + m.elastic } } },
-                          { "max_strain", m.max_strain } };
+                          { "max_strain", m.max_strain }, { "momentum", vector_json(m.momentum) } };
+                      momentum += m.momentum;
                       if (b < reports.size())
                           entry["contact"] = { { "candidates", reports[b].contacts },
                               { "active", reports[b].active_contacts },
                               { "sweeps", reports[b].contact_sweeps },
-                              { "max_penetration", reports[b].max_penetration } };
+                              { "max_penetration", reports[b].max_penetration },
+                              { "impulse", vector_json(reports[b].contact_impulse) } };
                       bodies.push_back(std::move(entry));
                   }
               }
@@ -302,6 +310,8 @@ void run_simulation(const RunOptions& options)
                       { "step_seconds", step_seconds },
                       { "phase_seconds", phase_json(now, before, this_export, 1.0) },
                       { "bodies", std::move(bodies) } };
+                  if (measure)
+                      entry["momentum"] = vector_json(momentum);
                   if (simulation.collision() != nullptr)
                       entry["collision"] = collision_json(frame_collision);
                   if (options.check_collisions && frame > 0)
@@ -349,6 +359,7 @@ void run_simulation(const RunOptions& options)
                 reports[b].contact_sweeps += last.contact_sweeps;
                 reports[b].max_penetration
                     = std::max(reports[b].max_penetration, last.max_penetration);
+                reports[b].contact_impulse += last.contact_impulse;
             }
             progress.advance();
         }

@@ -88,6 +88,13 @@ Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
         settings.margin = scene.solver.collision_margin;
         settings.friction = scene.solver.collision_friction;
         m_collision = std::make_unique<CollisionWorld>(settings);
+    } else if (scene.objects.size() > 1) {
+        for (const ObjectSettings& object : scene.objects)
+            if (object.motion != "dynamic") {
+                logger().warn("{}: object '{}' is {} but solver.collision is off: it touches "
+                              "nothing",
+                    scene.file, object.name, object.motion);
+            }
     }
     m_bodies.reserve(scene.objects.size());
     for (std::size_t o = 0; o < scene.objects.size(); ++o) {

@@ -1,6 +1,7 @@
 #pragma once
-// The whole offline stage (METHOD.md section 2): surface + medial mesh -> one BakeData, stage by
-// stage, with a progress line per stage on a terminal and a table of time and peak memory.
+// The whole offline stage (docs/method.md, section 2): surface + medial mesh -> one BakeData,
+// stage by stage, with a progress line per stage on a terminal and a table of time and peak
+// memory.
 
 #include <string>
 

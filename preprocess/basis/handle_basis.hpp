@@ -1,7 +1,7 @@
 #pragma once
-// The scalar handle basis B (METHOD.md section 2, points 3 and 5; slides: U(x) = [I, I x^T,
-// I x~^T, I x^^T]): u(x) = (B kron I3) q, i.e. u (#V x 3) = B Q with Q = coefficients (k x 3,
-// row-major, whose storage is the interleaved q).
+// The scalar handle basis B (docs/method.md, section 2, steps 3 and 5): u(x) = (B kron I3) q,
+// i.e. u (#V x 3) = B Q with Q = coefficients (k x 3, row-major, whose storage is the interleaved
+// q).
 //
 // Handle j (center c_j, scale s_j) uses local coordinates y = (x - c_j) / s_j and contributes
 // columns w_j(x) * [1, y1, y2, y3] (linear, 12 DOF) or additionally

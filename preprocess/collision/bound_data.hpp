@@ -1,7 +1,7 @@
 #pragma once
-// The collision-bound data of a bake (METHOD.md section 4): which medial primitive encloses each
-// surface vertex and triangle, and the per-(primitive, handle) factors that bound how far a
-// deformed enclosed point can stray from its deformed primitive.
+// The collision-bound data of a bake (docs/method.md, section 2, step 7): which medial primitive
+// encloses each surface vertex and triangle, and the per-(primitive, handle) factors that bound
+// how far a deformed enclosed point can stray from its deformed primitive.
 //
 // Derivation. With u = (B (x) I3) q, a point x enclosed by primitive P at parameter t (the
 // sphere weights of its deepest enclosing sphere, |x - c(t)| <= r(t)) moves to

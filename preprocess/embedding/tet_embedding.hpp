@@ -1,5 +1,5 @@
 #pragma once
-// Embeds points in a tet mesh (METHOD.md section 2, step 2): each point gets a tet and its
+// Embeds points in a tet mesh (docs/method.md, section 2, step 2): each point gets a tet and its
 // barycentric coordinates there, so that any nodal field interpolates to the point.
 
 #include "common/eigen_types.hpp"

@@ -1,5 +1,6 @@
 #pragma once
-// A medial mesh for any closed surface (issue 6), so that a bare surface can be baked:
+// A medial mesh for any closed surface (docs/method.md, section 1), so that a bare surface can be
+// baked:
 //   1. sample the surface (deterministic lattice, thinned to a target count);
 //   2. Delaunay-tetrahedralize the samples (CGAL) and keep the Voronoi vertices inside the
 //      surface, with the Voronoi edges and faces between them (the inner Voronoi complex);

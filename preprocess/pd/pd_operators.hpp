@@ -1,5 +1,5 @@
 #pragma once
-// Full-space projective dynamics operators of a tet mesh (METHOD.md section 2, point 6):
+// Full-space projective dynamics operators of a tet mesh (docs/method.md, section 2, step 6):
 // per-tet rest data (Dm^-1, volume), the scalar stiffness Laplacian L = sum_e vol_e G_e^T G_e
 // (which is also the cotangent / linear FEM Laplacian used for harmonic weights) and lumped
 // masses. Everything is per unit stiffness and per unit density.

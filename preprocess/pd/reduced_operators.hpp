@@ -1,7 +1,7 @@
 #pragma once
-// Reduced projective dynamics matrices (METHOD.md section 2, points 5-6): with u = (B kron I3) q
-// every reduced matrix is three copies of one scalar k x k block, so the bake stores B^T L B and
-// B^T M B (per unit stiffness and density) and the runtime assembles
+// Reduced projective dynamics matrices (docs/method.md, section 2, steps 5-6): with
+// u = (B kron I3) q every reduced matrix is three copies of one scalar k x k block, so the bake
+// stores B^T L B and B^T M B (per unit stiffness and density) and the runtime assembles
 // S = stiffness B^T L B + density B^T M B / h^2 for any time step.
 
 #include <exception>

@@ -1,6 +1,7 @@
 #pragma once
-// Which tet-mesh nodes are pinned to which handle for the harmonic weights (METHOD.md section 2,
-// point 4): handle j's weight is exactly 1 on its region and 0 on every other handle's region.
+// Which tet-mesh nodes are pinned to which handle for the harmonic weights (docs/method.md,
+// section 2, step 4): handle j's weight is exactly 1 on its region and 0 on every other handle's
+// region.
 //
 // Rule (deterministic, documented in the bake report):
 //  1. Node x is a candidate of handle j if ||x - c_j|| <= alpha * r_j.

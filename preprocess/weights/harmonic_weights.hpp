@@ -1,5 +1,5 @@
 #pragma once
-// Harmonic skinning weights over the tet mesh (METHOD.md section 2, point 4), with hard
+// Harmonic skinning weights over the tet mesh (docs/method.md, section 2, step 4), with hard
 // constraints, partition of unity, bounds and sparsity.
 //
 // For each handle j: L w_j = 0 at free nodes, w_j = 1 on handle j's region, 0 on the other

@@ -1,5 +1,5 @@
 #pragma once
-// Collision between bodies and within a body, once per time step (METHOD.md section 4):
+// Collision between bodies and within a body, once per time step (docs/method.md, section 4):
 //   1. bounds: each body's medial primitives follow the deformation and are enlarged so that
 //      they still enclose the surface vertices (MedialBounds): by default the exact per-vertex
 //      increments from the node positions, which every solver has each step (on the benchmark's

@@ -283,8 +283,8 @@ Mat3 MedialBounds::primitive_rotation(Index p) const
     }
 }
 
-// Lan et al. 2020, "deformation bounding" (METHOD.md section 4), with sigma_max of each handle's
-// whole block: delta_P = sum_j factor_j sigma_max(Q_j - Q_j^rigid(R, T)).
+// Lan et al. 2020, "deformation bounding" (docs/method.md, section 4, step 1), with sigma_max of
+// each handle's whole block: delta_P = sum_j factor_j sigma_max(Q_j - Q_j^rigid(R, T)).
 double MedialBounds::bound_increment(Index p, const Eigen::Ref<const MatX3>& q, bool remove_rigid)
 {
     const int begin = m_entry_begin(p);

@@ -1,6 +1,6 @@
 #pragma once
 // The deformed medial primitives of a body, enlarged so that each still encloses the surface
-// vertices assigned to it (METHOD.md section 4, "MAT culling"). Built once from the bake; each
+// vertices assigned to it (docs/method.md, section 4, step 1). Built once from the bake; each
 // update moves the sphere centers with the reduced coordinates q and enlarges the radii of every
 // primitive P by one increment delta_P, written per primitive into flat arrays for the broad
 // phase (no allocation per update, parallel over primitives with TBB, the same result for any

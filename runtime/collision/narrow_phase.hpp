@@ -1,5 +1,5 @@
 #pragma once
-// Narrow phase of the collision world (METHOD.md section 4, last step) over all the colliding
+// Narrow phase of the collision world (docs/method.md, section 4, step 5) over all the colliding
 // medial primitive pairs of one step. Only the surface triangles and boundary nodes enclosed by a
 // colliding primitive, and lying in the region of one of its pairs (the intersection of the two
 // enlarged primitives' boxes, grown by the contact margin), take part:

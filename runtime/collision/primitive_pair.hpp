@@ -1,7 +1,7 @@
 #pragma once
-// Exact narrow-phase tests between two medial primitives (METHOD.md section 4; Lan et al. 2020,
-// "Medial Elastics", section 5: the primitive-primitive test as a quadratically constrained
-// quadratic program).
+// Exact narrow-phase tests between two medial primitives (docs/method.md, section 4, step 4; Lan
+// et al. 2020, "Medial Elastics", section 5: the primitive-primitive test as a quadratically
+// constrained quadratic program).
 //
 // A primitive is 1 (sphere), 2 (cone) or 3 (slab) spheres; its volume is the union of the spheres
 // c(w) = sum_i w_i c_i, r(w) = sum_i w_i r_i over barycentric weights w (which is the convex hull

@@ -1,8 +1,8 @@
 #pragma once
-// Broad phase of the medial culling (METHOD.md section 4): spatial hashing of the boxes of the
-// enlarged medial primitives of every body. Each step the runtime hands one box per primitive;
-// the hash returns the pairs of boxes that overlap, between bodies (object-object) and within a
-// body between primitives that share no medial sphere (self).
+// Broad phase of the medial culling (docs/method.md, section 4, step 3): spatial hashing of the
+// boxes of the enlarged medial primitives of every body. Each step the runtime hands one box per
+// primitive; the hash returns the pairs of boxes that overlap, between bodies (object-object) and
+// within a body between primitives that share no medial sphere (self).
 //
 // Cells are cubes of side h = cell_size_factor x the median of the items' largest box extents,
 // so a typical box covers a few cells whatever the units. A box is entered in every cell it

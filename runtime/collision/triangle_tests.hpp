@@ -1,5 +1,5 @@
 #pragma once
-// Triangle-level narrow phase (METHOD.md section 4, last step): an exact triangle-triangle
+// Triangle-level narrow phase (docs/method.md, section 4, step 5): an exact triangle-triangle
 // intersection test, and the closest-point queries a contact response needs (vertex-triangle,
 // edge-edge).
 //

@@ -1,6 +1,6 @@
 #pragma once
-// mat-run --check-collisions (issue 5, item 6): after each step, the collision world's
-// intersecting triangle pairs are compared with the exhaustive ground truth
+// mat-run --check-collisions (the recall check of docs/method.md, section 7): after each step,
+// the collision world's intersecting triangle pairs are compared with the exhaustive ground truth
 // (intersecting_triangle_pairs over every surface triangle pair) on the same surfaces, in world
 // coordinates, as the world saw them at its last detect(). The pairs are split by where their
 // triangles lie (each triangle belongs to the primitives enclosing its vertices):

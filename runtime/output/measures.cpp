@@ -20,6 +20,7 @@ BodyMeasures measure_body(
     for (Index i = 0; i < model.num_nodes(); ++i) {
         result.kinetic += 0.5 * masses(i) * state.velocities.row(i).squaredNorm();
         result.potential -= masses(i) * gravity.dot(state.positions.row(i).transpose());
+        result.momentum += masses(i) * state.velocities.row(i).transpose();
     }
     const Index t = model.num_tets();
     VecX energy(t), strain(t);

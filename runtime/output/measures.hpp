@@ -15,6 +15,7 @@ struct BodyMeasures {
     /// + w_limit/2 ||F - P_limit(F)||^2), J.
     double elastic = 0.0;
     double max_strain = 0.0; ///< max over tets of max_i |sigma_i - 1| (signed singular values)
+    Vec3 momentum = Vec3::Zero(); ///< sum m_i v_i, kg m/s
 };
 
 /// Measures `state` of `model` under gravity `gravity`. If `tet_strain` is not null it receives

@@ -1,6 +1,8 @@
 #pragma once
-// Ground-plane contact with Coulomb friction, resolved inside each projective dynamics iteration
-// (METHOD.md section 3; issue 4: "no penalty forces lagging a step").
+// The contact solve with Coulomb friction, resolved inside each projective dynamics iteration
+// (docs/method.md, "Contact": no penalty forces applied a step late). Written here for points
+// against planes; the contact stage (contact_stage.hpp) gives it relative points of two bodies
+// (a "node" below is then such a point, and D the Delassus operator W of the bodies).
 //
 // Why not a PD constraint with a weight: a unilateral contact constraint with a fixed weight
 // changes the system matrix whenever the contact set changes (a refactorization), and a stiff

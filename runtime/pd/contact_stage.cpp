@@ -395,6 +395,7 @@ void ContactStage::end_step()
             solver->report().active_contacts = 0;
             solver->report().contact_sweeps = m_sweeps;
             solver->report().max_penetration = 0.0;
+            solver->report().contact_impulse.setZero();
         }
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = 0; a < m; ++a) {
@@ -419,6 +420,17 @@ void ContactStage::end_step()
             for (int k = side.first; k < side.first + side.count; ++k)
                 x += m_term_weight[static_cast<std::size_t>(k)]
                     * positions.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
+        }
+        // Each side takes the force times its weights' sum (1 for a point of the body, -1 for
+        // the other body's point).
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            PdSolver& solver = *m_solvers[static_cast<std::size_t>(side.body)];
+            double weight = 0.0;
+            for (int k = side.first; k < side.first + side.count; ++k)
+                weight += m_term_weight[static_cast<std::size_t>(k)];
+            solver.report().contact_impulse
+                += (weight * solver.model().time_step()) * m_forces.row(a).transpose();
         }
         const PlaneCollider& plane = m_planes[static_cast<std::size_t>(m_pairs[a].plane)];
         StepReport& report = m_solvers[static_cast<std::size_t>(record.sides[0].body)]->report();

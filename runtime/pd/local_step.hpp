@@ -1,9 +1,9 @@
 #pragma once
-// The projective dynamics local step in full space (Bouaziz et al. 2014, section 3; METHOD.md
-// section 3): every tet's deformation gradient is projected onto the strain constraint (nearest
-// rotation), the volume constraint (det F clamped) and the strain limit (singular values
-// clamped), and the projections are gathered into the global step's right-hand side
-// sum_e w_e G_e^T P_e^T. The step uses the vectorized kernel of projection_kernel.hpp;
+// The projective dynamics local step in full space (Bouaziz et al. 2014, section 3;
+// docs/method.md, section 3): every tet's deformation gradient is projected onto the strain
+// constraint (nearest rotation), the volume constraint (det F clamped) and the strain limit
+// (singular values clamped), and the projections are gathered into the global step's right-hand
+// side sum_e w_e G_e^T P_e^T. The step uses the vectorized kernel of projection_kernel.hpp;
 // project_tet is the exact scalar reference it is tested against.
 
 #include <limits>

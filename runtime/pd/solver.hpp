@@ -1,7 +1,7 @@
 #pragma once
 // Implicit Euler projective dynamics (Bouaziz et al. 2014; semi-reduced as in Lan et al. 2020,
-// METHOD.md section 3). Both solvers share the full-space local step and the contact solve; the
-// global step is either the reduced k x k solve (SemiReducedSolver) or the full n x n CHOLMOD
+// docs/method.md, section 3). Both solvers share the full-space local step and the contact solve;
+// the global step is either the reduced k x k solve (SemiReducedSolver) or the full n x n CHOLMOD
 // solve (FullSolver, the accuracy reference and speed baseline).
 //
 // Per step, with h = dt, M the lumped masses, g the gravity acceleration:
@@ -58,6 +58,9 @@ struct StepReport {
     int active_contacts = 0; ///< candidates with a non-zero force after the last iteration
     int contact_sweeps = 0; ///< Gauss-Seidel sweeps, summed over iterations
     double max_penetration = 0.0; ///< deepest node below a plane at the end of the step (m)
+    /// The contact forces on the body over the step times the step (N s): what the contacts
+    /// added to its momentum.
+    Vec3 contact_impulse = Vec3::Zero();
 };
 
 class PdSolver {

@@ -151,12 +151,12 @@ namespace {
                 .set_doc("nodes this close to a plane (fraction of the bake's bounding-box "
                          "diagonal) are contact candidates for a step"),
             value_key(S::solver, "collision", T::string, &SolverSettings::collision)
-                .set_default("off")
+                .set_default("bounded")
                 .set_choices({ "bounded", "lazy", "off" })
-                .set_doc("collision between objects (off by default while contact between "
-                         "reduced bodies is being made robust): medial primitives enlarged to "
-                         "enclose the deformed surface (bounded), moved only (lazy, can miss "
-                         "under large deformation), or none"),
+                .set_doc("collision between objects (and, with self_collision on, within one): "
+                         "medial primitives enlarged to enclose the deformed surface (bounded), "
+                         "moved only (lazy, can miss under large deformation), or none; a scene "
+                         "of one object without self collision has none to detect"),
             value_key(S::solver, "self_collision", T::string, &SolverSettings::self_collision)
                 .set_default("off")
                 .set_choices({ "on", "off" })

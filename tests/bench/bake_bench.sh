@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The bake benchmark (issue 3; not a test): time and peak memory of every stage of mat-bake on
-# the sample creature at about 50k tets with 100-200 handles, on the threads given (default 2).
+# The bake benchmark (docs/method.md, section 7; not a test): time and peak memory of every stage
+# of mat-bake on the sample creature at about 50k tets with 100-200 handles, on the threads given
+# (default 2).
 # Usage: tests/bench/bake_bench.sh [BUILD_DIR] [THREADS]
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"

@@ -1,4 +1,4 @@
-// Per-step cost of the collision world on a scene in contact (issue 5):
+// Per-step cost of the collision world (docs/method.md, section 4) on a scene in contact:
 //   collision_bench SCENE.json [STEPS] [REPEATS]
 // Runs the scene's first STEPS steps (semi-reduced solver, with the scene's collision), then
 // times REPEATS detect() calls on the final state for: the medial pipeline with the default

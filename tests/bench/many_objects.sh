@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Cost of a scene with what moves (issue 7): 20 creatures with collision on, 18 resting on the
-# ground apart from each other and 2 dropped in the middle, one onto the other (the lower lands
+# Cost of a scene with what moves (a scene should cost what moves in it, not what rests:
+# docs/method.md, section 7): 20 creatures with collision on, 18 resting on the ground apart from
+# each other and 2 dropped in the middle, one onto the other (the lower lands
 # at about t = 2.6 s, the upper on it at about 3.1 s; solver.damping 0.1, which lets the resting
 # ones settle within the warm-up, also caps the fall at about 3 m/s).
 #   tests/bench/many_objects.sh [BUILD_DIR] [REPEATS] [SOLVERS]

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The run benchmark (issue 4; not a test): ms per step of semi-reduced against full-space (and
-# hyper-reduced: the local step on sampled tets) projective dynamics at 10 iterations, on the
-# sample creature at about 50k tets with about 150 handles, on the threads given (default 2),
-# with the time per phase and the peak RSS of each.
-# The creature falls freely (no ground: this measures the solver; contact is issue 5's bench).
+# The run benchmark (docs/method.md, section 7; not a test): ms per step of semi-reduced against
+# full-space (and hyper-reduced: the local step on sampled tets) projective dynamics at 10
+# iterations, on the sample creature at about 50k tets with about 150 handles, on the threads given
+# (default 2), with the time per phase and the peak RSS of each.
+# The creature falls freely (no ground: this measures the solver; collision and contact are
+# measured by collision_bench.sh).
 # The solvers run in turn, ROUNDS times (default 5): the VM's speed drifts by 15-50% over
 # seconds to minutes, so one run of each can land in different states. Prints each solver's
 # phase table from the last round, then per round and over the rounds (median, min, max) the

@@ -359,7 +359,8 @@ namespace {
             text_io::write_file_atomically(args[1] + "/" + scenes[i].name + ".svg", svgs[i]);
             std::printf("wrote %s/%s.svg\n", args[1].c_str(), scenes[i].name.c_str());
         }
-        text_io::write_file_atomically(args[2], markdown(scenes, "docs/charts", note));
+        // The table goes into docs/benchmarks.md, which links the charts relative to itself.
+        text_io::write_file_atomically(args[2], markdown(scenes, "charts", note));
         std::printf("wrote %s\n", args[2].c_str());
         return 0;
     }

@@ -1,6 +1,6 @@
 // The whole bake on a small shipped case (a unit cube with a 2-cone medial mesh): the checks of
-// issue 3 on weights, basis, reduced matrices, collision bounds, the HDF5 round trip and
-// determinism.
+// the bake (docs/method.md, section 2) on weights, basis, reduced matrices, collision bounds, the
+// HDF5 round trip and determinism.
 
 #include <cstdio>
 #include <fstream>
