@@ -395,7 +395,7 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     for (int iteration = 0; iteration < iterations; ++iteration) {
         for (const std::size_t b : m_stepped)
             m_bodies[b].solver->iterate(iteration);
-        m_contact_stage->solve();
+        m_contact_stage->solve(iteration + 1 == iterations);
         for (const std::size_t b : m_stepped)
             m_bodies[b].solver->finish_iteration(iteration);
     }

@@ -61,6 +61,10 @@ struct ContactPair {
 
 struct ContactSettings {
     int max_sweeps = 200; ///< projected Gauss-Seidel sweeps per solve
+    /// With contacts between bodies, the sweeps of a PD iteration's solve before the step's last
+    /// (ContactStage): on creatures_collide and drop_on_pile 20 gave the same penetration and
+    /// strain as 200 at a quarter of the contact time.
+    int early_sweeps = 20;
     /// Stop when no position moves more than this in a sweep (m; the solvers take it relative
     /// to the rest bounding-box diagonal).
     double tolerance = 1e-7;

@@ -181,6 +181,7 @@ void ContactStage::begin_step(
             add_ground_contacts(static_cast<int>(b), bodies[b]);
     const Index ground = static_cast<Index>(m_records.size());
     add_body_contacts(bodies, contacts);
+    m_body_contacts = static_cast<Index>(m_records.size()) - ground;
     for (std::size_t a = static_cast<std::size_t>(ground); a < m_records.size(); ++a) {
         // Contacts between bodies are compliant (PdSolver's node_contact_compliance).
         const Side& side = m_records[a].sides[0];
@@ -349,7 +350,7 @@ void ContactStage::fill_column(Index d)
     }
 }
 
-void ContactStage::solve()
+void ContactStage::solve(bool last)
 {
     const Index m = static_cast<Index>(m_records.size());
     if (m == 0)
@@ -362,8 +363,13 @@ void ContactStage::solve()
             x += side_position(record.sides[static_cast<std::size_t>(s)]);
         m_free.row(a) = x.transpose();
     }
+    // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
+    // iterate they push still moves; the last iteration's solve is the one that must hold).
+    ContactSettings settings = m_settings;
+    if (!last && m_body_contacts > 0)
+        settings.max_sweeps = std::min(settings.max_sweeps, settings.early_sweeps);
     const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready, m_fill,
-        m_planes, m_pairs, m_free, m_start, m_forces, m_positions, m_settings, m_scratch);
+        m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;
     for (Index a = 0; a < m; ++a) {
         if (!(m_forces.row(a).squaredNorm() > 0.0))

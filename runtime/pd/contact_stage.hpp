@@ -103,8 +103,9 @@ public:
     /// step's force of the same ground pair, or of a contact at the same first node).
     void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
-    /// their displacements to the bodies' global steps.
-    void solve();
+    /// their displacements to the bodies' global steps. `last`: the step's last iteration
+    /// (before it, a solve with body contacts stops after ContactSettings::early_sweeps).
+    void solve(bool last = true);
     /// After the last iteration's positions: each stepped body's StepReport (contacts of which
     /// it holds the first term, the sweeps, the deepest penetration at the end of the step) and
     /// the warm start of the next step.
@@ -175,6 +176,7 @@ private:
     ContactScratch m_scratch;
     ContactSettings m_settings;
     int m_sweeps = 0;
+    Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
 };
 
 } // namespace mat
