@@ -7,6 +7,9 @@
 // in every solver mode; the heavier body keeps moving forward.
 
 #include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -280,6 +283,71 @@ namespace {
                     : info.param == SolverKind::hyper_reduced ? "hyper"
                                                               : "semi");
         });
+
+} // namespace
+} // namespace mat
+
+namespace mat {
+namespace {
+
+    std::string read_file_text(const std::string& path)
+    {
+        std::ifstream in(path);
+        std::stringstream text;
+        text << in.rdbuf();
+        return text.str();
+    }
+
+    class CollisionSampleTest : public test::ScratchDirTest,
+                                public ::testing::WithParamInterface<const char*> { };
+
+    // The collision samples in full (samples/NAME/scene.json on the coarse creature, tets 4% of
+    // its diagonal, as `make -C samples` bakes it), checked after every step against the
+    // exhaustive ground truth (--check-collisions): the deepest vertex of one body inside
+    // another stays within 0.5% of the smaller body's diagonal, and no triangle pair of two
+    // bodies (or of non-adjacent parts of one) intersects in the last 10 frames. Not yet held,
+    // so not here: limb_self_contact keeps up to 4 self-intersecting pairs at rest, and in
+    // creature_stack the top creature's landing sinks a vertex 1.0 cm (0.77%) for a step.
+    TEST_P(CollisionSampleTest, NoPenetrationAndNoIntersectionAtRest)
+    {
+        const std::string name = GetParam();
+        write_bake(path("creature_coarse.h5"), test::sample_bake("creature", 0.04));
+        write_bake(path("capsule.h5"), test::sample_bake("capsule", 0.05));
+        std::string text
+            = read_file_text(std::string(MAT_SAMPLES_DIR) + "/" + name + "/scene.json");
+        ASSERT_FALSE(text.empty());
+        for (const std::string bake :
+            { "../creature/creature_coarse.h5", "../capsule/capsule.h5" }) {
+            const std::string local = bake.substr(bake.rfind('/') + 1);
+            for (std::size_t at = text.find(bake); at != std::string::npos; at = text.find(bake))
+                text.replace(at, bake.size(), local);
+        }
+        const Scene scene = read_scene(write_text("scene.json", text));
+        Simulation simulation(scene, SolverKind::semi_reduced);
+        double smallest = std::numeric_limits<double>::infinity();
+        for (const Body& body : simulation.bodies()) {
+            const MatX3& rest = body.model->rest_positions();
+            smallest = std::min(
+                smallest, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
+        }
+        const int steps = scene.frames * scene.steps_per_frame;
+        const int last = std::max(0, steps - 10 * scene.steps_per_frame);
+        double deepest = 0.0;
+        long pairs = 0;
+        for (int s = 1; s <= steps; ++s) {
+            simulation.step();
+            const CollisionCheckCounts check = check_collisions(simulation);
+            deepest = std::max(deepest, check.max_penetration);
+            if (s > last)
+                pairs += check.far_pairs;
+        }
+        EXPECT_LE(deepest, 0.005 * smallest) << name;
+        EXPECT_EQ(pairs, 0) << name;
+    }
+
+    INSTANTIATE_TEST_SUITE_P(Samples, CollisionSampleTest,
+        ::testing::Values("creatures_collide", "drop_on_pile", "kinematic_sweep"),
+        [](const ::testing::TestParamInfo<const char*>& info) { return std::string(info.param); });
 
 } // namespace
 } // namespace mat
