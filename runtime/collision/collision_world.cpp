@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <unordered_map>
 
@@ -10,6 +11,7 @@
 
 #include "common/error.hpp"
 #include "common/timer.hpp"
+#include "runtime/collision/triangle_tests.hpp"
 
 namespace mat {
 
@@ -49,6 +51,7 @@ void CollisionWorld::add_body(const BakeData& bake)
     body.tets = bake.tet_mesh.tets;
     body.medial_tet = bake.medial_tet;
     body.medial_barycentric = bake.medial_barycentric;
+    body.rest_surface = bake.surface.positions;
     const MatX3& rest = bake.tet_mesh.positions;
     body.diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
 
@@ -65,6 +68,70 @@ void CollisionWorld::add_body(const BakeData& bake)
     for (Index v = 0; v < primitive.size(); ++v)
         body.vertex_list(fill(primitive(v))++) = static_cast<int>(v);
     m_bodies.push_back(std::move(body));
+}
+
+// A uniform grid of cell `radius` over the rest faces' boxes; each vertex looks in the cells
+// around it for faces within `radius` that do not have it as a corner.
+void CollisionWorld::find_rest_neighbours(std::size_t b, double radius)
+{
+    Body& body = m_bodies[b];
+    body.rest_near_radius = radius;
+    const MatX3& x = body.rest_surface;
+    const MatX3i& faces = body.surface_view.faces();
+    const Index vs = x.rows();
+    std::vector<std::vector<int>> near(static_cast<std::size_t>(vs));
+    if (radius > 0.0) {
+        const auto cell
+            = [&](double c) { return static_cast<std::int64_t>(std::floor(c / radius)); };
+        const auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+            return (i * 73856093) ^ (j * 19349663) ^ (k * 83492791);
+        };
+        std::unordered_map<std::int64_t, std::vector<int>> grid;
+        for (Index f = 0; f < faces.rows(); ++f) {
+            Vec3 lo = x.row(faces(f, 0)).transpose(), hi = lo;
+            for (int c = 1; c < 3; ++c) {
+                lo = lo.cwiseMin(x.row(faces(f, c)).transpose());
+                hi = hi.cwiseMax(x.row(faces(f, c)).transpose());
+            }
+            for (std::int64_t i = cell(lo.x()); i <= cell(hi.x()); ++i)
+                for (std::int64_t j = cell(lo.y()); j <= cell(hi.y()); ++j)
+                    for (std::int64_t k = cell(lo.z()); k <= cell(hi.z()); ++k)
+                        grid[key(i, j, k)].push_back(static_cast<int>(f));
+        }
+        tbb::parallel_for(tbb::blocked_range<Index>(0, vs, 256), [&](const auto& range) {
+            for (Index v = range.begin(); v != range.end(); ++v) {
+                const Vec3 p = x.row(v).transpose();
+                std::vector<int>& list = near[static_cast<std::size_t>(v)];
+                for (std::int64_t i = cell(p.x()) - 1; i <= cell(p.x()) + 1; ++i)
+                    for (std::int64_t j = cell(p.y()) - 1; j <= cell(p.y()) + 1; ++j)
+                        for (std::int64_t k = cell(p.z()) - 1; k <= cell(p.z()) + 1; ++k) {
+                            const auto it = grid.find(key(i, j, k));
+                            if (it == grid.end())
+                                continue;
+                            for (const int f : it->second) {
+                                if (faces(f, 0) == v || faces(f, 1) == v || faces(f, 2) == v)
+                                    continue;
+                                const PointTriangleClosest closest = point_triangle_closest(p,
+                                    x.row(faces(f, 0)).transpose(), x.row(faces(f, 1)).transpose(),
+                                    x.row(faces(f, 2)).transpose());
+                                if (closest.squared_distance < radius * radius)
+                                    list.push_back(f);
+                            }
+                        }
+                std::sort(list.begin(), list.end());
+                list.erase(std::unique(list.begin(), list.end()), list.end());
+            }
+        });
+    }
+    body.rest_near_indptr = VecXi::Zero(vs + 1);
+    for (Index v = 0; v < vs; ++v)
+        body.rest_near_indptr(v + 1)
+            = body.rest_near_indptr(v) + static_cast<int>(near[static_cast<std::size_t>(v)].size());
+    body.rest_near_list.resize(body.rest_near_indptr(vs));
+    for (Index v = 0; v < vs; ++v)
+        std::copy(near[static_cast<std::size_t>(v)].begin(),
+            near[static_cast<std::size_t>(v)].end(),
+            body.rest_near_list.data() + body.rest_near_indptr(v));
 }
 
 void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state, double margin)
@@ -176,6 +243,11 @@ void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states
                 update_body(m_updated[k], states[m_updated[k]], m_margin);
         });
     m_report.updated_bodies = static_cast<int>(m_updated.size());
+    // Self collision: what is near at rest is never a contact (a body at rest stays at rest).
+    if (m_settings.self)
+        for (std::size_t b = 0; b < m_bodies.size(); ++b)
+            if (m_bodies[b].rest_near_radius != rest_near_factor * m_margin)
+                find_rest_neighbours(b, rest_near_factor * m_margin);
     m_report.bounds_seconds = timer.seconds();
 }
 
@@ -299,6 +371,8 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         view.node_indptr = &body.vertex_indptr;
         view.node_list = &body.vertex_list;
         view.nodes_are_vertices = true;
+        view.rest_near_indptr = body.rest_near_radius >= 0.0 ? &body.rest_near_indptr : nullptr;
+        view.rest_near_list = &body.rest_near_list;
         view.is_static = states[b].is_static;
         view.motion = states[b].motion;
         view.velocities = body.surface_velocity.rows() > 0 ? &body.surface_velocity : nullptr;

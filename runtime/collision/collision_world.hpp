@@ -54,6 +54,11 @@ namespace mat {
 /// unstable.
 inline constexpr double contact_skin = 0.25;
 
+/// Self collision never pairs a surface vertex with a face of its own surface that lies within
+/// this many collision margins of it in the rest shape: what touches at rest is not a contact, so
+/// a body at rest stays at rest.
+inline constexpr double rest_near_factor = 2.0;
+
 struct CollisionSettings {
     bool enabled = true;
     bool self = true; ///< self-collision between primitives that share no sphere
@@ -178,6 +183,12 @@ private:
         double diagonal = 0.0; ///< rest bounding-box diagonal
         // Per-step workspace, world coordinates.
         MatX3 surface; ///< #Vs x 3
+        /// The rest surface  #Vs x 3, and per vertex the faces of its own surface within
+        /// `rest_near_radius` of it at rest (CSR, increasing; never self contacts).
+        MatX3 rest_surface;
+        VecXi rest_near_indptr;
+        VecXi rest_near_list;
+        double rest_near_radius = -1.0;
         MatX3 surface_velocity; ///< #Vs x 3 (empty: at rest)
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
@@ -195,6 +206,8 @@ private:
     void update_body(std::size_t b, const CollisionBodyState& state, double margin);
     void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
     void respond(const std::vector<CollisionBodyState>& states);
+    /// Body b's faces near each vertex at rest, within `radius` (self collision skips them).
+    void find_rest_neighbours(std::size_t b, double radius);
 
     SpatialHash m_hash;
     std::vector<BroadPhaseItem> m_items; ///< one per primitive of every hashed body

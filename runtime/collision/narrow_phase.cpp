@@ -460,6 +460,14 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                         return;
                     if (!self_pair_allowed(bn, item.index, f, true))
                         return;
+                    if (other.rest_near_indptr != nullptr) {
+                        const int* begin
+                            = other.rest_near_list->data() + (*other.rest_near_indptr)(item.index);
+                        const int* end = other.rest_near_list->data()
+                            + (*other.rest_near_indptr)(item.index + 1);
+                        if (std::binary_search(begin, end, f))
+                            return;
+                    }
                 }
                 ++scratch.node_tests;
                 const Vec3 p0 = corner(other, f, 0);
@@ -495,6 +503,10 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
                 // within the margin, plus what the node may close in the step at its approach
                 // speed.
                 if (signed_distance < 0.0) {
+                    // Within one body, only within the margin: a vertex behind a face of
+                    // another part of its own body may just be on the far side of it.
+                    if (bf == bn && distance >= margin)
+                        return;
                     const Vec3 lo = p0.cwiseMin(p1).cwiseMin(p2).array() - margin;
                     const Vec3 hi = p0.cwiseMax(p1).cwiseMax(p2).array() + margin;
                     if ((x.array() < lo.array()).any() || (x.array() > hi.array()).any())

@@ -52,6 +52,9 @@ struct NarrowPhaseBody {
     /// n x 3 velocities of the nodes, world coordinates (null: at rest); with nodes that are the
     /// surface vertices, of the triangles' corners too.
     const MatX3* velocities = nullptr;
+    /// Per node, the faces of its own body it never pairs with (CSR, increasing; null: none).
+    const VecXi* rest_near_indptr = nullptr;
+    const VecXi* rest_near_list = nullptr;
     /// The "nodes" are the surface vertices (indices into `faces`): a vertex never pairs with a
     /// triangle of its own body that has it as a corner.
     bool nodes_are_vertices = false;

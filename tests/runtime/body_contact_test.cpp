@@ -17,6 +17,7 @@
 
 #include "formats/bake_io.hpp"
 #include "runtime/output/collision_check.hpp"
+#include "runtime/output/measures.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/support/sample_bake.hpp"
@@ -348,6 +349,54 @@ namespace {
     INSTANTIATE_TEST_SUITE_P(Samples, CollisionSampleTest,
         ::testing::Values("creatures_collide", "drop_on_pile", "kinematic_sweep"),
         [](const ::testing::TestParamInfo<const char*>& info) { return std::string(info.param); });
+
+} // namespace
+} // namespace mat
+
+namespace mat {
+namespace {
+
+    struct RestParam {
+        const char* sample;
+        double tet_size;
+    };
+
+    class SelfCollisionRestTest : public test::ScratchDirTest,
+                                  public ::testing::WithParamInterface<RestParam> { };
+
+    // Self collision never pairs what is near in the rest shape (a vertex and the faces of its
+    // own surface within two collision margins at rest): a sample at rest with self collision
+    // on, no gravity and no ground has no contact and no energy for 100 steps.
+    TEST_P(SelfCollisionRestTest, BodyAtRestStaysAtRest)
+    {
+        const RestParam& p = GetParam();
+        write_bake(path("body.h5"), test::sample_bake(p.sample, p.tet_size));
+        const Scene scene = read_scene(write_text("scene.json", R"({
+  "time": { "dt": 0.0333333333, "frames": 100, "iterations": 10 },
+  "gravity": [0, 0, 0],
+  "solver": { "self_collision": "on" },
+  "objects": [ { "name": "body", "bake": "body.h5",
+    "material": { "youngs_modulus": 5e4, "poisson_ratio": 0.4, "density": 1000 } } ]
+})"));
+        Simulation simulation(scene, SolverKind::semi_reduced);
+        ASSERT_NE(simulation.collision(), nullptr);
+        const Body& body = simulation.bodies()[0];
+        for (int s = 1; s <= 100; ++s) {
+            simulation.step();
+            ASSERT_EQ(simulation.collision()->last_report().contacts, 0) << "step " << s;
+        }
+        const BodyMeasures m = measure_body(*body.model, body.state, scene.gravity);
+        EXPECT_LT(m.kinetic + m.elastic, 1e-12);
+    }
+
+    INSTANTIATE_TEST_SUITE_P(Samples, SelfCollisionRestTest,
+        ::testing::Values(RestParam { "creature", 0.04 }, RestParam { "creature", 0.05 },
+            RestParam { "capsule", 0.1 }, RestParam { "rounded_bar", 0.1 },
+            RestParam { "torus", 0.1 }),
+        [](const ::testing::TestParamInfo<RestParam>& info) {
+            return std::string(info.param.sample) + "_"
+                + std::to_string(static_cast<int>(100 * info.param.tet_size));
+        });
 
 } // namespace
 } // namespace mat

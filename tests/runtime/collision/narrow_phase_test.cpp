@@ -182,6 +182,9 @@ namespace {
                         const double signed_d = n.dot(p - closest.point) < 0.0 ? -d : d;
                         if (signed_d >= margin)
                             continue;
+                        // Within one body a node behind a face counts within the margin only.
+                        if (&x == &y && d >= margin)
+                            continue;
                         auto [it, inserted] = result.nearest.emplace(
                             std::make_pair(body_x, node), std::abs(signed_d));
                         if (!inserted)
