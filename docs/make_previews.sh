@@ -17,7 +17,8 @@ trap 'rm -rf "$scratch"' EXIT
 mkdir -p "$out"
 # sample:frames (the frame shown: the bodies have moved, landed or met by then)
 for entry in capsule:20 rounded_bar:20 torus:20 creature:20 creatures_collide:30 \
-    limb_self_contact:30 drop_on_pile:30 kinematic_sweep:30 armadillo:20 bunny:20; do
+    limb_self_contact:30 drop_on_pile:30 kinematic_sweep:30 creature_stack:45 armadillo:20 \
+    bunny:20; do
     name="${entry%%:*}"; frames="${entry##*:}"
     scene="$root/samples/$name/scene.json"
     missing=""
