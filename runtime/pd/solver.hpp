@@ -6,11 +6,12 @@
 //
 // Per step, with h = dt, M the lumped masses, g the gravity acceleration:
 //   s = x_n + h v_n + h^2 g                       (inertia target)
-//   contact candidates: boundary nodes within `contact_margin` of a plane at x_n or at s
+//   contact candidates: boundary nodes within `contact_margin` of a plane at x_n or at s, and
+//     the contacts between bodies the driver gives (runtime/pd/contact_stage.hpp)
 //   x = s; repeat `iterations` times:
 //     local step at x -> r;  global step A x = M s / h^2 + r + P p  (p: the pin targets now)
-//     contact solve on the global step's result (runtime/pd/contact.hpp): exact Signorini-
-//     Coulomb conditions against every plane, inside the iteration
+//     contact stage on the global steps' results: exact Signorini-Coulomb conditions for every
+//     contact of every body, inside the iteration (docs/method.md, "Contact")
 //   v_{n+1} = (1 - damping) (x - x_n) / h
 // Damping: `damping` in [0, 1) scales the velocity at the end of each step (0 = none). It is a
 // simple numerical damping (it removes the fraction `damping` of the velocity per step, so its
