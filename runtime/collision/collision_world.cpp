@@ -413,10 +413,7 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
                     m_contacts.terms.push_back(ContactTerm {
                         hit.other_body, nodes(face(k), c), -beta(k) * weights(face(k), c) });
         PlaneCollider plane;
-        // A skin of a quarter of the margin: the vertex is held that far in front of the
-        // triangle, so that the compliant contact's give (docs/method.md, "Contact") does not
-        // take it, and the triangles around it, through the other surface.
-        plane.point = contact_skin * m_margin * hit.normal;
+        plane.point = Vec3::Zero();
         plane.normal = hit.normal;
         plane.friction = m_settings.friction;
         m_contacts.close(plane, hit.node);

@@ -48,12 +48,6 @@
 
 namespace mat {
 
-/// The gap a body contact keeps, as a fraction of the collision margin. Measured on the
-/// collision samples: without it about 120-600 triangle pairs stay intersecting at rest (the
-/// compliant contacts give 0.5-1 mm); 0.1 leaves up to 6, 0.25 none; 0.5 makes creatures_collide
-/// unstable.
-inline constexpr double contact_skin = 0.25;
-
 /// Self collision never pairs a surface vertex with a face of its own surface that lies within
 /// this many collision margins of it in the rest shape: what touches at rest is not a contact, so
 /// a body at rest stays at rest.
