@@ -10,9 +10,12 @@
 // placement of its region's motion: R (M(t) X) + t_placement.
 // A kinematic body is not simulated: each step first moves its nodes to their prescribed places
 // at the end of the step (kinematic_motion_at of the placed rest positions), with velocities the
-// step's displacement over dt; the collision world then sees it there, as a mesh collider (it
-// gets no contacts; the others' contact planes lie on its surface). The contact solve has no
-// collider velocity: friction against it acts on the others' motion relative to the world.
+// step's displacement over dt; the collision world then sees it there, as a mesh collider (its
+// nodes are constants of the others' contacts, and its motion over the step is part of them:
+// friction acts on the others' motion relative to it; docs/method.md, "Contact").
+// Each step: the collision world's contacts at the start of the step (detect_contacts), then
+// every awake dynamic body's PD step in stages with one contact stage over all bodies between
+// each iteration's global solves and positions (step_bodies).
 // Sleeping: a dynamic body without moving pins whose nodes have all been slower than
 // solver.sleep_speed x its rest diagonal per second for solver.sleep_steps consecutive steps
 // falls asleep: its velocities are set to zero, its solver is no longer stepped, and the

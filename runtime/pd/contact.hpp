@@ -46,13 +46,6 @@ struct PlaneCollider {
     double compliance = 0.0;
 };
 
-/// A contact given from outside the solver for one step (collision between bodies, mesh
-/// colliders): `node` must stay on the positive side of its own plane.
-struct NodeContact {
-    int node = 0;
-    PlaneCollider plane;
-};
-
 /// One candidate contact: a node against a plane.
 struct ContactPair {
     int node = 0;
