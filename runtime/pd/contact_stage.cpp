@@ -106,8 +106,6 @@ void ContactStage::add_body_contacts(
                 MAT_CHECK(record.num_sides < 2, "contact stage: contact {} spans three bodies", c);
                 add_side(record, term.body, static_cast<int>(m_term_node.size()), 0);
                 side = &record.sides[static_cast<std::size_t>(record.num_sides - 1)];
-                MAT_CHECK(side->first == static_cast<int>(m_term_node.size()),
-                    "contact stage: contact {} lists its bodies' terms interleaved", c);
             }
             bool merged = false;
             for (int k = side->first; k < side->first + side->count; ++k)
@@ -116,6 +114,9 @@ void ContactStage::add_body_contacts(
                     merged = true;
                 }
             if (!merged) {
+                // A side's terms are contiguous: the terms of one body come together.
+                MAT_CHECK(side == &record.sides[static_cast<std::size_t>(record.num_sides - 1)],
+                    "contact stage: contact {} lists its bodies' terms interleaved", c);
                 m_term_node.push_back(term.node);
                 m_term_weight.push_back(term.weight);
                 ++side->count;
