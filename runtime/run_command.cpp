@@ -22,6 +22,7 @@
 #include "runtime/output/preview.hpp"
 #include "runtime/output/trajectory_error.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 
 namespace mat {
@@ -136,7 +137,7 @@ namespace {
     {
         double diagonal = 0.0;
         for (const Body& body : simulation.bodies()) {
-            const MatX3& rest = body.model->rest_positions();
+            const MatX3& rest = body.model->pd().rest_positions();
             diagonal = std::max(
                 diagonal, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
         }
@@ -202,7 +203,7 @@ void run_simulation(const RunOptions& options)
                 "--stats {}: the directory {} does not exist", options.stats, parent.string());
     }
 
-    Simulation simulation(scene, solver_kind);
+    Simulation simulation(scene, load_bodies(scene, solver_kind));
     // --reference: read and check the reference before anything is written; the run then
     // always writes its trajectory cache, to compare at the end.
     std::unique_ptr<TrajectoryReader> reference;
@@ -213,7 +214,7 @@ void run_simulation(const RunOptions& options)
         std::vector<Index> vertex_counts;
         for (const Body& body : simulation.bodies()) {
             names.push_back(body.name);
-            vertex_counts.push_back(body.surface->num_vertices());
+            vertex_counts.push_back(body.model->surface().num_vertices());
         }
         check_reference(*reference, names, vertex_counts, Index(frames) + 1);
         std::error_code same_error;
@@ -273,8 +274,8 @@ void run_simulation(const RunOptions& options)
               if (measure) {
                   for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
                       const Body& body = simulation.bodies()[b];
-                      const BodyMeasures m
-                          = measure_body(*body.model, body.state, scene.gravity, &tet_strain[b]);
+                      const BodyMeasures m = measure_body(
+                          body.model->pd(), body.state, scene.gravity, &tet_strain[b]);
                       nlohmann::json entry { { "name", body.name },
                           { "energy",
                               { { "kinetic", m.kinetic }, { "potential", m.potential },

@@ -5,238 +5,54 @@
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "common/timer.hpp"
-#include "formats/bake_io.hpp"
-#include "runtime/pd/hyper_reduced.hpp"
 #include "runtime/scene/pin_motion.hpp"
 
 namespace mat {
 
 namespace {
 
-    Material material_of(const MaterialSettings& settings)
+    /// The collision world the scene asks for, or null: none when collision is off, or when one
+    /// body cannot collide with itself. Warns about static and kinematic objects that then touch
+    /// nothing.
+    std::unique_ptr<CollisionWorld> make_collision_world(const Scene& scene)
     {
-        Material material;
-        material.youngs_modulus = settings.youngs_modulus;
-        material.poisson_ratio = settings.poisson_ratio;
-        material.density = settings.density;
-        if (settings.strain_limits) {
-            material.strain_limit_min = (*settings.strain_limits)(0);
-            material.strain_limit_max = (*settings.strain_limits)(1);
+        const bool self = scene.solver.self_collision;
+        if (scene.solver.collision != CollisionMode::off && (scene.objects.size() > 1 || self)) {
+            CollisionSettings settings;
+            settings.self = self;
+            settings.bounds = scene.solver.collision == CollisionMode::lazy ? RadiusUpdate::lazy
+                                                                            : RadiusUpdate::bound;
+            settings.margin = scene.solver.collision_margin;
+            settings.friction = scene.solver.collision_friction;
+            return std::make_unique<CollisionWorld>(settings);
         }
-        return material;
-    }
-
-    /// The nodes of `region` (bake coordinates), increasing. Throws naming `key` if none.
-    std::vector<int> region_nodes(const PinRegion& region, const MatX3& rest,
-        const std::string& scene_file, const std::string& key)
-    {
-        std::vector<int> nodes;
-        const Index n = rest.rows();
-        switch (region.kind) {
-        case PinKind::box:
-            for (Index i = 0; i < n; ++i) {
-                const Vec3 x = rest.row(i).transpose();
-                if ((x.array() >= region.box.min.array()).all()
-                    && (x.array() <= region.box.max.array()).all())
-                    nodes.push_back(static_cast<int>(i));
-            }
-            break;
-        case PinKind::sphere:
-            for (Index i = 0; i < n; ++i)
-                if ((rest.row(i).transpose() - region.sphere.center).norm() <= region.sphere.radius)
-                    nodes.push_back(static_cast<int>(i));
-            break;
-        case PinKind::nodes:
-            for (const int i : region.nodes) {
-                if (i < 0 || i >= n)
-                    throw_error("{}: {}.nodes: node {} is out of range [0, {}) for this bake",
-                        scene_file, key, i, n);
-                nodes.push_back(i);
-            }
-            break;
-        }
-        if (nodes.empty())
-            throw_error("{}: {}: the region contains no node of the bake's tet mesh (regions are "
-                        "in the bake's coordinates)",
-                scene_file, key);
-        return nodes;
+        if (scene.objects.size() > 1)
+            for (const ObjectSettings& object : scene.objects)
+                if (object.motion != ObjectMotion::dynamic)
+                    logger().warn("{}: object '{}' is {} but solver.collision is off: it touches "
+                                  "nothing",
+                        scene.file, object.name, motion_name(object.motion));
+        return nullptr;
     }
 
 } // namespace
 
-SolverKind parse_solver_kind(const std::string& name)
-{
-    if (name == "semi")
-        return SolverKind::semi_reduced;
-    if (name == "full")
-        return SolverKind::full;
-    if (name == "hyper")
-        return SolverKind::hyper_reduced;
-    throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
-}
-
-Simulation::Simulation(const Scene& scene, SolverKind solver_kind)
+Simulation::Simulation(const Scene& scene, std::vector<Body> bodies)
     : m_scene(scene)
-    , m_solver_kind(solver_kind)
+    , m_bodies(std::move(bodies))
+    , m_collision(make_collision_world(scene))
 {
-    const bool self = scene.solver.self_collision == "on";
-    if (scene.solver.collision != "off" && (scene.objects.size() > 1 || self)) {
-        CollisionSettings settings;
-        settings.self = self;
-        settings.bounds
-            = scene.solver.collision == "lazy" ? RadiusUpdate::lazy : RadiusUpdate::bound;
-        settings.margin = scene.solver.collision_margin;
-        settings.friction = scene.solver.collision_friction;
-        m_collision = std::make_unique<CollisionWorld>(settings);
-    } else if (scene.objects.size() > 1) {
-        for (const ObjectSettings& object : scene.objects)
-            if (object.motion != "dynamic") {
-                logger().warn("{}: object '{}' is {} but solver.collision is off: it touches "
-                              "nothing",
-                    scene.file, object.name, object.motion);
-            }
-    }
-    m_bodies.reserve(scene.objects.size());
-    for (std::size_t o = 0; o < scene.objects.size(); ++o) {
-        const ObjectSettings& object = scene.objects[o];
-        const std::string key = fmt::format("objects[{}]", o);
-        Body body;
-        body.name = object.name;
-        body.rotation = rotation_from_euler_degrees(object.rotation_degrees);
-        body.translation = object.position;
-
-        BakeData bake = read_bake(object.bake);
-        const MatX3& rest = bake.tet_mesh.positions;
-        const Index n = rest.rows();
-
-        // Pins: each node belongs to the first region that selects it.
-        ModelOptions options;
-        options.time_step = scene.time.dt;
-        options.volume_tolerance = scene.solver.volume_tolerance;
-        // Reduced bodies pin softly (solver.reduced_pin_stiffness): stiff pins on every pinned node
-        // freeze each handle whose weights reach into the pinned region (locking).
-        if (solver_kind != SolverKind::full)
-            options.pin_weight_scale = scene.solver.reduced_pin_stiffness;
-        std::vector<char> taken(n, 0);
-        for (std::size_t p = 0; p < object.pins.size(); ++p) {
-            PinGroup group;
-            group.region = &object.pins[p];
-            for (const int i : region_nodes(
-                     object.pins[p], rest, scene.file, fmt::format("{}.pins[{}]", key, p))) {
-                if (taken[i])
-                    continue;
-                taken[i] = 1;
-                group.nodes.push_back(i);
-                group.slots.push_back(static_cast<int>(options.pinned_nodes.size()));
-                options.pinned_nodes.push_back(i);
-                group.centroid += rest.row(i).transpose();
-            }
-            if (!group.nodes.empty())
-                group.centroid /= static_cast<double>(group.nodes.size());
-            body.pins.push_back(std::move(group));
-        }
-        options.pin_targets.resize(static_cast<Index>(options.pinned_nodes.size()), 3);
-        for (Index p = 0; p < options.pin_targets.rows(); ++p)
-            options.pin_targets.row(p)
-                = (body.rotation * rest.row(options.pinned_nodes[p]).transpose() + body.translation)
-                      .transpose();
-
-        body.model = std::make_unique<Model>(bake, material_of(object.material), options);
-        body.surface = std::make_unique<SurfaceView>(bake);
-        body.is_static = object.motion == "static" || object.motion == "kinematic";
-        body.is_kinematic = object.motion == "kinematic";
-        body.object = &object;
-        body.surface_primitive = bake.collision.vertex_primitive;
-        body.primitive_spheres = bake.collision.primitive_spheres;
-        if (m_collision)
-            m_collision->add_body(bake);
-        body.num_handles = bake.num_handles();
-
-        SolverOptions solver_options;
-        solver_options.iterations = scene.time.iterations;
-        solver_options.gravity = scene.gravity;
-        solver_options.damping = scene.solver.damping;
-        solver_options.exact_projections = scene.solver.projections == "exact";
-        solver_options.contact_margin = scene.solver.contact_margin;
-        for (const ColliderSettings& collider : scene.colliders)
-            solver_options.planes.push_back(
-                PlaneCollider { collider.point, collider.normal, collider.friction });
-        if (solver_kind == SolverKind::full)
-            body.solver = std::make_unique<FullSolver>(*body.model, solver_options);
-        else if (solver_kind == SolverKind::hyper_reduced)
-            body.solver = std::make_unique<HyperReducedSolver>(
-                *body.model, solver_options, scene.solver.hyper_samples);
-        else
-            body.solver = std::make_unique<SemiReducedSolver>(*body.model, solver_options);
-
-        // Initial state: placed rest positions, v + w x (x - centre of mass).
-        body.state.positions.resize(n, 3);
-        for (Index i = 0; i < n; ++i)
-            body.state.positions.row(i)
-                = (body.rotation * rest.row(i).transpose() + body.translation).transpose();
-        const VecX& masses = body.model->masses();
-        const Vec3 centre
-            = (body.state.positions.transpose() * masses) / std::max(masses.sum(), 1e-300);
-        body.state.velocities.resize(n, 3);
-        for (Index i = 0; i < n; ++i)
-            body.state.velocities.row(i) = (object.velocity
-                + object.angular_velocity.cross(body.state.positions.row(i).transpose() - centre))
-                                               .transpose();
-        for (const PinGroup& group : body.pins)
-            for (const int i : group.nodes)
-                body.state.velocities.row(i).setZero();
-        body.placed_centre = centre;
-        if (body.is_kinematic) {
-            // Its keyframes may not start at the placement; velocities as given (constant
-            // motion) or zero (keyframes: the first step's finite difference follows).
-            body.placed_rest = body.state.positions;
-            if (!object.keyframes.empty()) {
-                body.state.positions = apply_pin_transform(
-                    kinematic_motion_at(object, 0.0, centre), body.placed_rest);
-                body.state.velocities.setZero();
-            }
-        } else if (body.is_static) {
-            body.state.velocities.setZero();
-        }
-        body.pin_targets = options.pin_targets;
-        update_pin_targets(body, 0.0);
-        if (!body.is_static)
-            body.sleep_speed = scene.solver.sleep_speed
-                * (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
-        logger().info("{}: {} nodes, {} tets, {} handles, {} columns, {} pinned nodes", body.name,
-            n, body.model->num_tets(), body.num_handles, body.model->num_columns(),
-            options.pinned_nodes.size());
-        m_bodies.push_back(std::move(body));
-    }
+    MAT_CHECK(m_bodies.size() == scene.objects.size(), "simulation: {} bodies for {} objects",
+        m_bodies.size(), scene.objects.size());
+    if (m_collision)
+        for (const Body& body : m_bodies)
+            m_collision->add_body(body.model);
     m_contact_stage = std::make_unique<ContactStage>(static_cast<Index>(m_bodies.size()));
     // Speculative contacts: what a vertex may close in a step at its approach speed (a quarter
     // more for the speed it gains in the step), and what gravity adds.
     if (m_collision)
         m_collision->set_lookahead(
             1.25 * scene.time.dt, scene.time.dt * scene.time.dt * scene.gravity.norm());
-}
-
-bool Simulation::update_pin_targets(Body& body, double time)
-{
-    const MatX3& rest = body.model->rest_positions();
-    bool moving = false;
-    bool moved_pins = false;
-    for (const PinGroup& group : body.pins) {
-        if (group.region->motion.empty())
-            continue;
-        moving = true;
-        const PinTransform motion = pin_motion_at(*group.region, time, group.centroid);
-        for (std::size_t a = 0; a < group.nodes.size(); ++a) {
-            const Vec3 moved = motion.apply(rest.row(group.nodes[a]).transpose());
-            const Eigen::RowVector3d target
-                = (body.rotation * moved + body.translation).transpose();
-            moved_pins = moved_pins || target != body.pin_targets.row(group.slots[a]);
-            body.pin_targets.row(group.slots[a]) = target;
-        }
-    }
-    if (moving)
-        body.solver->set_pin_targets(body.pin_targets);
-    return moved_pins;
 }
 
 void Simulation::move_kinematic(Body& body, double time)

@@ -1,7 +1,8 @@
 #pragma once
-// A scene's bodies, built from their bakes and stepped together: per body an immutable Model,
-// a solver, its State, its pinned regions with their prescribed motion, and the surface view the
-// exporter reads. Knows nothing of output files (runtime/output/exporter.hpp writes frames).
+// A scene's bodies stepped together (runtime/body.hpp: per body its immutable BodyModel, a
+// solver, its State, its pinned regions with their prescribed motion). The bodies are built from
+// the scene by load_bodies (runtime/scene/scene_bodies.hpp), where the bakes are read; this knows
+// nothing of files (runtime/output/exporter.hpp writes frames).
 //
 // Placement: a body's bake coordinates X map to the world by x = R X + t (the object's
 // rotation_degrees and position). The model stays in bake coordinates: PD energies are rotation
@@ -26,69 +27,20 @@
 // the bodies' states, in body order: runs do not depend on the thread count.
 
 #include <memory>
-#include <string>
 #include <vector>
 
-#include "common/eigen_types.hpp"
+#include "runtime/body.hpp"
 #include "runtime/collision/collision_world.hpp"
-#include "runtime/model.hpp"
-#include "runtime/output/surface_view.hpp"
-#include "runtime/pd/solver.hpp"
+#include "runtime/pd/contact_stage.hpp"
 #include "runtime/scene/scene.hpp"
-#include "runtime/state.hpp"
 
 namespace mat {
 
-enum class SolverKind { semi_reduced, full, hyper_reduced };
-
-/// "semi", "full" or "hyper" -> SolverKind; throws mat::Error otherwise.
-SolverKind parse_solver_kind(const std::string& name);
-
-/// One pinned region of a body: its nodes (indices into the model's pinned list and the mesh).
-struct PinGroup {
-    const PinRegion* region = nullptr;
-    std::vector<int> nodes; ///< tet-mesh nodes (each node in one group only)
-    std::vector<int> slots; ///< their rows in the model's pin list
-    Vec3 centroid = Vec3::Zero(); ///< rest centroid, bake coordinates
-};
-
-struct Body {
-    std::string name;
-    std::unique_ptr<Model> model;
-    std::unique_ptr<PdSolver> solver;
-    std::unique_ptr<SurfaceView> surface;
-    State state;
-    State next;
-    Mat3 rotation = Mat3::Identity(); ///< placement
-    Vec3 translation = Vec3::Zero();
-    std::vector<PinGroup> pins;
-    MatX3 pin_targets; ///< #pinned x 3, workspace
-    Index num_handles = 0;
-    /// Not stepped by a solver (a static or a kinematic object): a mesh collider for the others.
-    bool is_static = false;
-    bool is_kinematic = false; ///< moves rigidly as prescribed (then is_static too)
-    const ObjectSettings* object = nullptr; ///< its scene entry
-    MatX3 placed_rest; ///< n x 3 placed rest positions (kinematic bodies only)
-    Vec3 placed_centre = Vec3::Zero(); ///< placed centre of mass
-    /// For the collision check: the medial primitive enclosing each surface vertex  #Vs, and
-    /// each primitive's spheres  #P x 3 (-1 unused).
-    VecXi surface_primitive;
-    MatX3i primitive_spheres;
-    /// Sleeping (scene keys solver.sleep_speed, solver.sleep_steps): a dynamic body that is not
-    /// stepped; its velocities are zero and its positions, collision bounds and surface stay.
-    bool asleep = false;
-    int slow_steps = 0; ///< consecutive steps with every node slower than sleep_speed
-    double sleep_speed = 0.0; ///< m/s: solver.sleep_speed x the rest diagonal (0: never sleeps)
-    /// Moved since the collision world last updated its bounds (else they are reused).
-    bool moved = true;
-};
-
 class Simulation {
 public:
-    /// Reads every bake, builds the models and solvers. Throws mat::Error naming the scene key
-    /// for a pin region that selects no node or a node index out of range, and the bake file
-    /// for a bake that cannot be read.
-    Simulation(const Scene& scene, SolverKind solver);
+    /// Takes the scene's bodies (load_bodies(scene, ...), in the scene's object order) and sets
+    /// up the collision world the scene asks for. The time step is the scene's, time.dt.
+    Simulation(const Scene& scene, std::vector<Body> bodies);
 
     /// Advances every body by one time step dt.
     void step();
@@ -104,8 +56,6 @@ public:
     int num_sleeping() const;
 
 private:
-    /// Sets the pin targets at `time`; whether any moved.
-    bool update_pin_targets(Body& body, double time);
     /// Wakes the sleeping bodies whose box meets the box of a body that moves (a kinematic
     /// body, or an awake one whose last step was not slow); the bounds are the last update's.
     void wake_touched(std::vector<CollisionBodyState>& states);
@@ -129,7 +79,6 @@ private:
     BodyContacts m_no_contacts;
     std::vector<ContactBodyState> m_contact_views;
     std::vector<std::size_t> m_stepped;
-    SolverKind m_solver_kind = SolverKind::semi_reduced;
     long m_steps = 0;
 };
 

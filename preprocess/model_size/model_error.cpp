@@ -9,23 +9,6 @@
 
 namespace mat {
 
-MatX3 surface_positions(const BakeData& bake, const Eigen::Ref<const MatX3>& nodes)
-{
-    const Index count = bake.surface_tet.size();
-    if (bake.surface_barycentric.rows() != count || bake.surface_barycentric.cols() != 4)
-        throw_error("bake: the surface embedding has {} tets and {} x {} barycentric weights",
-            count, bake.surface_barycentric.rows(), bake.surface_barycentric.cols());
-    MatX3 out(count, 3);
-    for (Index v = 0; v < count; ++v) {
-        Vec3 x = Vec3::Zero();
-        for (int c = 0; c < 4; ++c)
-            x += bake.surface_barycentric(v, c)
-                * nodes.row(bake.tet_mesh.tets(bake.surface_tet(v), c)).transpose();
-        out.row(v) = x.transpose();
-    }
-    return out;
-}
-
 SurfaceError surface_error(
     const Eigen::Ref<const MatX3>& a, const Eigen::Ref<const MatX3>& b, double diagonal)
 {

@@ -13,10 +13,6 @@ struct SurfaceError {
     double max_percent = 0.0;
 };
 
-/// Surface vertex positions  #Vs x 3 of the bake's embedded surface carried by the tet-mesh
-/// node positions `nodes`  n x 3.
-MatX3 surface_positions(const BakeData& bake, const Eigen::Ref<const MatX3>& nodes);
-
 /// Vertex-to-vertex distances between `a` and `b` (both #Vs x 3, the same surface), relative to
 /// `diagonal`.
 SurfaceError surface_error(

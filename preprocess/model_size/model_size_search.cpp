@@ -10,6 +10,7 @@
 
 #include "common/error.hpp"
 #include "common/log.hpp"
+#include "common/surface_embedding.hpp"
 #include "common/timer.hpp"
 #include "formats/surface_io.hpp"
 #include "formats/surface_validation.hpp"
@@ -161,10 +162,12 @@ namespace {
         row.dof = 3 * (full_space ? bake.tet_mesh.num_vertices() : bake.num_columns());
         result.residuals = VecX::Zero(bake.num_handles());
         const bool is_reference = m_reference.empty();
+        const SurfaceEmbedding embedding(bake);
         for (std::size_t c = 0; c < m_cases.size(); ++c) {
             const StaticSolution solution
                 = solve_static(bake, m_box, m_cases[c], full_space, m_options.solve);
-            const MatX3 surface = surface_positions(bake, solution.positions);
+            MatX3 surface(embedding.num_vertices(), 3);
+            embedding.positions(solution.positions, surface);
             if (is_reference) {
                 m_reference.push_back(surface);
                 logger().info("load case {}: largest surface displacement {:.3g}% of the "

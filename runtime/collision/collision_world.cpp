@@ -45,19 +45,14 @@ CollisionWorld::CollisionWorld(const CollisionSettings& settings)
             settings.friction);
 }
 
-void CollisionWorld::add_body(const BakeData& bake)
+void CollisionWorld::add_body(std::shared_ptr<const BodyModel> model)
 {
-    Body body(bake);
-    body.tets = bake.tet_mesh.tets;
-    body.medial_tet = bake.medial_tet;
-    body.medial_barycentric = bake.medial_barycentric;
-    body.rest_surface = bake.surface.positions;
-    const MatX3& rest = bake.tet_mesh.positions;
-    body.diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+    MAT_CHECK(model != nullptr, "collision: add_body without a model");
+    Body body(std::move(model));
 
     // The contact points: the surface vertices, grouped by the primitive that encloses each.
-    const Index num_primitives = body.collision.primitive_kind.size();
-    const VecXi& primitive = body.collision.vertex_primitive;
+    const Index num_primitives = body.model->primitives().primitive_kind.size();
+    const VecXi& primitive = body.model->primitives().vertex_primitive;
     body.vertex_indptr = VecXi::Zero(num_primitives + 1);
     for (Index v = 0; v < primitive.size(); ++v)
         ++body.vertex_indptr(primitive(v) + 1);
@@ -76,8 +71,8 @@ void CollisionWorld::find_rest_neighbours(std::size_t b, double radius)
 {
     Body& body = m_bodies[b];
     body.rest_near_radius = radius;
-    const MatX3& x = body.rest_surface;
-    const MatX3i& faces = body.surface_view.faces();
+    const MatX3& x = body.model->rest_surface();
+    const MatX3i& faces = body.model->surface().faces();
     const Index vs = x.rows();
     std::vector<std::vector<int>> near(static_cast<std::size_t>(vs));
     if (radius > 0.0) {
@@ -139,14 +134,15 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     Body& body = m_bodies[b];
     MAT_CHECK(state.nodes != nullptr, "collision: body {} has no positions", b);
     const MatX3& nodes = *state.nodes;
-    body.surface.resize(body.surface_view.num_vertices(), 3);
-    body.surface_view.positions(nodes, body.surface);
+    body.surface.resize(body.model->surface().num_vertices(), 3);
+    body.model->surface().positions(nodes, body.surface);
     const bool from_q = state.q != nullptr
         && (m_settings.bounds != RadiusUpdate::bound || !m_settings.bounds_from_positions);
     if (from_q) {
         body.bounds.update(*state.q, m_settings.bounds);
     } else {
-        embed(nodes, body.tets, body.medial_tet, body.medial_barycentric, body.sphere_centers);
+        embed(nodes, body.model->pd().tets(), body.model->medial_tet(),
+            body.model->medial_barycentric(), body.sphere_centers);
         body.bounds.update_from_positions(body.surface, body.sphere_centers, m_settings.bounds);
     }
 
@@ -166,7 +162,7 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     if (state.velocities != nullptr) {
         MatX3& velocity = body.surface_velocity;
         velocity.resize(surface.rows(), 3);
-        body.surface_view.interpolate(*state.velocities, velocity);
+        body.model->surface().interpolate(*state.velocities, velocity);
         tbb::parallel_for(
             tbb::blocked_range<Index>(0, velocity.rows(), 512), [&](const auto& range) {
                 for (Index i = range.begin(); i != range.end(); ++i)
@@ -192,7 +188,7 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
             prim.radii[i] = body.bounds.radii()(p, i) + 0.5 * margin + state.motion;
             item.box.extend(Box3(
                 prim.centers[i].array() - prim.radii[i], prim.centers[i].array() + prim.radii[i]));
-            item.spheres[i] = body.collision.primitive_spheres(p, i);
+            item.spheres[i] = body.model->primitives().primitive_spheres(p, i);
         }
         // A ball holding the primitive (it holds each sphere, so their convex hull), for a
         // quick rejection before the exact test.
@@ -225,7 +221,7 @@ void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states
         return;
     double diagonal = 0.0;
     for (const Body& body : m_bodies)
-        diagonal = std::max(diagonal, body.diagonal);
+        diagonal = std::max(diagonal, body.model->rest_diagonal());
     m_margin = m_settings.margin * diagonal;
 
     // 1. Bounds, and the surfaces, nodes and primitives in world coordinates, except for the
@@ -364,10 +360,10 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         const Body& body = m_bodies[b];
         NarrowPhaseBody& view = m_views[b];
         view.surface = &body.surface;
-        view.faces = &body.surface_view.faces();
+        view.faces = &body.model->surface().faces();
         view.nodes = &body.surface;
-        view.face_indptr = &body.collision.face_primitives_indptr;
-        view.face_list = &body.collision.face_primitives;
+        view.face_indptr = &body.model->primitives().face_primitives_indptr;
+        view.face_list = &body.model->primitives().face_primitives;
         view.node_indptr = &body.vertex_indptr;
         view.node_list = &body.vertex_list;
         view.nodes_are_vertices = true;
@@ -398,15 +394,15 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
     for (const NodeCandidate& hit : m_narrow.candidates()) {
         const Body& self = m_bodies[static_cast<std::size_t>(hit.body)];
         const Body& other = m_bodies[static_cast<std::size_t>(hit.other_body)];
-        const Eigen::Vector3i face = other.surface_view.faces().row(hit.face).transpose();
+        const Eigen::Vector3i face = other.model->surface().faces().row(hit.face).transpose();
         const Vec3& beta = hit.barycentric;
         for (int c = 0; c < 4; ++c)
-            if (self.surface_view.weights()(hit.node, c) != 0.0)
+            if (self.model->surface().weights()(hit.node, c) != 0.0)
                 m_contacts.terms.push_back(
-                    ContactTerm { hit.body, self.surface_view.nodes()(hit.node, c),
-                        self.surface_view.weights()(hit.node, c) });
-        const MatX4i& nodes = other.surface_view.nodes();
-        const MatX& weights = other.surface_view.weights();
+                    ContactTerm { hit.body, self.model->surface().nodes()(hit.node, c),
+                        self.model->surface().weights()(hit.node, c) });
+        const MatX4i& nodes = other.model->surface().nodes();
+        const MatX& weights = other.model->surface().weights();
         for (int k = 0; k < 3; ++k)
             for (int c = 0; c < 4; ++c)
                 if (beta(k) * weights(face(k), c) != 0.0)

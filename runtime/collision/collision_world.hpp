@@ -34,15 +34,16 @@
 // self collision, a non-adjacent part's) triangles, both carried by the tet nodes through the
 // surface embedding; friction acts on their relative motion.
 
+#include <memory>
 #include <vector>
 
 #include "common/bake_data.hpp"
 #include "common/eigen_types.hpp"
+#include "runtime/body_model.hpp"
 #include "runtime/collision/medial_bounds.hpp"
 #include "runtime/collision/narrow_phase.hpp"
 #include "runtime/collision/primitive_pair.hpp"
 #include "runtime/collision/spatial_hash.hpp"
-#include "runtime/output/surface_view.hpp"
 #include "runtime/pd/contact.hpp"
 #include "runtime/pd/contact_stage.hpp"
 
@@ -125,8 +126,9 @@ public:
         m_extra = extra;
     }
 
-    /// Adds a body from its bake (copies what collision needs). Bodies are numbered in order.
-    void add_body(const BakeData& bake);
+    /// Adds a body (its collision data and surface embedding, kept shared). Bodies are numbered
+    /// in order.
+    void add_body(std::shared_ptr<const BodyModel> model);
 
     /// Runs the pipeline on the bodies' current states (one per added body) and returns the
     /// contacts between them: per surface vertex with a triangle near (or in front of it), the
@@ -151,7 +153,7 @@ public:
     const std::vector<FacePair>& intersecting_pairs() const { return m_intersecting; }
     /// Body b's surface in world coordinates at the last detect()  #Vs x 3, and its faces #F x 3.
     const MatX3& world_surface(Index b) const { return m_bodies[b].surface; }
-    const MatX3i& faces(Index b) const { return m_bodies[b].surface_view.faces(); }
+    const MatX3i& faces(Index b) const { return m_bodies[b].model->surface().faces(); }
     const CollisionSettings& settings() const { return m_settings; }
     /// Body b's enlarged primitives at the last detect(), in its solver's coordinates.
     const MedialBounds& bounds(Index b) const { return m_bodies[b].bounds; }
@@ -159,27 +161,22 @@ public:
 
 private:
     struct Body {
-        explicit Body(const BakeData& bake)
-            : bounds(bake)
-            , collision(bake.collision)
-            , surface_view(bake)
+        explicit Body(std::shared_ptr<const BodyModel> body_model)
+            : model(std::move(body_model))
+            , bounds(model->medial(), model->primitives(), model->medial_basis(),
+                  model->pd().handle_centers(), model->pd().handle_scales(),
+                  model->pd().handle_column_offsets())
         {
         }
+        std::shared_ptr<const BodyModel> model;
         MedialBounds bounds;
-        MedialCollisionData collision;
-        SurfaceView surface_view; ///< the surface embedded in the tets
-        MatX4i tets;
         /// Surface vertices grouped by their primitive (CSR): the contact points.
         VecXi vertex_indptr; ///< #P + 1
         VecXi vertex_list;
-        VecXi medial_tet; ///< #S
-        MatX medial_barycentric; ///< #S x 4
-        double diagonal = 0.0; ///< rest bounding-box diagonal
         // Per-step workspace, world coordinates.
         MatX3 surface; ///< #Vs x 3
-        /// The rest surface  #Vs x 3, and per vertex the faces of its own surface within
-        /// `rest_near_radius` of it at rest (CSR, increasing; never self contacts).
-        MatX3 rest_surface;
+        /// Per surface vertex the faces of its own surface within `rest_near_radius` of it at
+        /// rest (CSR, increasing; never self contacts).
         VecXi rest_near_indptr;
         VecXi rest_near_list;
         double rest_near_radius = -1.0;

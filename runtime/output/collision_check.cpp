@@ -239,8 +239,9 @@ CollisionCheckCounts check_collisions(const Simulation& simulation)
         if ((a.is_static || a.asleep) && (b.is_static || b.asleep))
             continue;
         const bool far = pair[0] != pair[2]
-            || faces_in_non_adjacent_primitives(
-                world->faces(pair[0]), a.surface_primitive, a.primitive_spheres, pair[1], pair[3]);
+            || faces_in_non_adjacent_primitives(world->faces(pair[0]),
+                a.model->primitives().vertex_primitive, a.model->primitives().primitive_spheres,
+                pair[1], pair[3]);
         const bool hit = std::binary_search(found.begin(), found.end(), pair);
         (far ? counts.far_pairs : counts.near_pairs) += 1;
         (far ? counts.far_found : counts.near_found) += hit ? 1 : 0;
@@ -252,8 +253,8 @@ CollisionCheckCounts check_collisions(const Simulation& simulation)
     // Penetration after the step.
     for (Index b = 0; b < n; ++b) {
         const Body& body = bodies[static_cast<std::size_t>(b)];
-        surfaces[b].positions.resize(body.surface->num_vertices(), 3);
-        body.surface->positions(body.state.positions, surfaces[b].positions);
+        surfaces[b].positions.resize(body.model->surface().num_vertices(), 3);
+        body.model->surface().positions(body.state.positions, surfaces[b].positions);
     }
     const PenetrationDepth depth = penetration_depth(surfaces);
     counts.max_penetration = depth.max_depth;

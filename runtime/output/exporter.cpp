@@ -33,15 +33,15 @@ Exporter::Exporter(const Simulation& simulation, const OutputSettings& output,
     }
     const auto& bodies = simulation.bodies();
     for (const Body& body : bodies) {
-        m_surface.emplace_back(body.surface->num_vertices(), 3);
-        m_surface_velocity.emplace_back(body.surface->num_vertices(), 3);
+        m_surface.emplace_back(body.model->surface().num_vertices(), 3);
+        m_surface_velocity.emplace_back(body.model->surface().num_vertices(), 3);
     }
     if (m_h5) {
         std::vector<TrajectoryObject> objects;
         for (std::size_t b = 0; b < bodies.size(); ++b) {
-            bodies[b].surface->positions(bodies[b].state.positions, m_surface[b]);
-            objects.push_back(
-                TrajectoryObject { bodies[b].name, bodies[b].surface->faces(), m_surface[b] });
+            bodies[b].model->surface().positions(bodies[b].state.positions, m_surface[b]);
+            objects.push_back(TrajectoryObject {
+                bodies[b].name, bodies[b].model->surface().faces(), m_surface[b] });
         }
         m_trajectory
             = std::make_unique<TrajectoryWriter>(m_directory + "/trajectory.h5", objects, run_json);
@@ -61,17 +61,17 @@ void Exporter::write_frame(
     const auto& bodies = simulation.bodies();
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         const Body& body = bodies[b];
-        body.surface->positions(body.state.positions, m_surface[b]);
+        body.model->surface().positions(body.state.positions, m_surface[b]);
         if (m_velocity)
-            body.surface->interpolate(body.state.velocities, m_surface_velocity[b]);
+            body.model->surface().interpolate(body.state.velocities, m_surface_velocity[b]);
         if (m_obj) {
             write_frame_surface(frame_path(body.name, frame, "obj"), m_surface[b],
-                body.surface->faces(), SurfaceFrameFormat::obj);
+                body.model->surface().faces(), SurfaceFrameFormat::obj);
             ++m_files;
         }
         if (m_ply) {
             write_frame_surface(frame_path(body.name, frame, "ply"), m_surface[b],
-                body.surface->faces(), SurfaceFrameFormat::ply);
+                body.model->surface().faces(), SurfaceFrameFormat::ply);
             ++m_files;
         }
         if (m_vtu) {
@@ -79,16 +79,17 @@ void Exporter::write_frame(
             if (m_velocity)
                 fields.push_back(PointField { "velocity", m_surface_velocity[b] });
             if (m_stretch) {
-                MAT_CHECK(b < tet_strain.size() && tet_strain[b].size() == body.model->num_tets(),
+                MAT_CHECK(
+                    b < tet_strain.size() && tet_strain[b].size() == body.model->pd().num_tets(),
                     "exporter: no stretch given for body {}", body.name);
-                const VecXi& tets = body.surface->tets();
+                const VecXi& tets = body.model->surface().tets();
                 MatX stretch(tets.size(), 1);
                 for (Index v = 0; v < tets.size(); ++v)
                     stretch(v, 0) = tet_strain[b](tets(v));
                 fields.push_back(PointField { "stretch", std::move(stretch) });
             }
             const std::string path = frame_path(body.name, frame, "vtu");
-            write_vtu(path, m_surface[b], body.surface->faces(), fields);
+            write_vtu(path, m_surface[b], body.model->surface().faces(), fields);
             m_pvd.push_back(PvdEntry {
                 time, static_cast<int>(b), fmt::format("{}_{:05d}.vtu", body.name, frame) });
             ++m_files;

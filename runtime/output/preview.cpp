@@ -230,8 +230,8 @@ PreviewWriter::PreviewWriter(
     Box3 bounds;
     int moving = 0;
     for (const Body& body : bodies) {
-        m_surface.emplace_back(body.surface->num_vertices(), 3);
-        body.surface->positions(body.state.positions, m_surface.back());
+        m_surface.emplace_back(body.model->surface().num_vertices(), 3);
+        body.model->surface().positions(body.state.positions, m_surface.back());
         for (Index v = 0; v < m_surface.back().rows(); ++v)
             bounds.extend(m_surface.back().row(v).transpose());
         m_colors.push_back(body.is_static ? static_color : palette[moving++ % palette.size()]);
@@ -281,8 +281,8 @@ void PreviewWriter::write_frame(int frame, const Simulation& simulation)
     MAT_CHECK(bodies.size() == m_surface.size(), "preview: {} bodies, framed {}", bodies.size(),
         m_surface.size());
     for (std::size_t b = 0; b < bodies.size(); ++b) {
-        bodies[b].surface->positions(bodies[b].state.positions, m_surface[b]);
-        m_image.draw_mesh(m_camera, m_surface[b], bodies[b].surface->faces(), m_colors[b]);
+        bodies[b].model->surface().positions(bodies[b].state.positions, m_surface[b]);
+        m_image.draw_mesh(m_camera, m_surface[b], bodies[b].model->surface().faces(), m_colors[b]);
     }
     write_png(fmt::format("{}/preview/frame_{:05d}.png", m_directory, frame), m_image.width(),
         m_image.height(), m_image.rgb());

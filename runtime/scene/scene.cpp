@@ -357,10 +357,10 @@ namespace {
         void finish_object(const ObjectSettings& object, const std::string& path) const
         {
             const std::string keyframes = join_key(path, "keyframes");
-            if (object.motion != "kinematic") {
+            if (object.motion != ObjectMotion::kinematic) {
                 if (given(keyframes))
                     fail(keyframes, "only a kinematic object has keyframes (motion is \"{}\")",
-                        object.motion);
+                        motion_name(object.motion));
                 return;
             }
             if (!object.pins.empty())
@@ -445,6 +445,19 @@ namespace {
     };
 
 } // namespace
+
+const char* motion_name(ObjectMotion motion)
+{
+    switch (motion) {
+    case ObjectMotion::static_:
+        return "static";
+    case ObjectMotion::kinematic:
+        return "kinematic";
+    case ObjectMotion::dynamic:
+        break;
+    }
+    return "dynamic";
+}
 
 Scene parse_scene(
     const std::string& json_text, const std::string& path_for_messages, const SceneOptions& options)

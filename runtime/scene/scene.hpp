@@ -28,13 +28,23 @@ struct TimeSettings {
     int iterations = 0; ///< PD local/global iterations per step
 };
 
+/// The local step's decomposition (SolverOptions::exact_projections).
+enum class ProjectionMode { fast, exact };
+/// Collision between objects: medial bounds enlarged to enclose the deformed surface, moved
+/// only, or none (runtime/collision/collision_world.hpp).
+enum class CollisionMode { bounded, lazy, off };
+/// What moves an object: its simulation, nothing, or a prescribed rigid motion.
+enum class ObjectMotion { dynamic, static_, kinematic };
+/// The scene's word for `motion`: "dynamic", "static" or "kinematic".
+const char* motion_name(ObjectMotion motion);
+
 struct SolverSettings {
     double damping = 0.0; ///< per-step velocity scaling in [0, 1)
     double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
-    std::string projections; ///< "fast" or "exact" (SolverOptions::exact_projections)
+    ProjectionMode projections = ProjectionMode::fast; ///< "fast" or "exact"
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
-    std::string collision; ///< "bounded", "lazy" or "off"
-    std::string self_collision; ///< "on" or "off"
+    CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
+    bool self_collision = false; ///< "on" or "off"
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed
@@ -84,7 +94,7 @@ struct PinRegion {
 
 struct ObjectSettings {
     std::string name; ///< unique among the objects
-    std::string motion; ///< "dynamic", "static" or "kinematic"
+    ObjectMotion motion = ObjectMotion::dynamic; ///< "dynamic", "static" or "kinematic"
     std::string bake; ///< absolute, normalized path of the bake file
     Vec3 position = Vec3::Zero(); ///< translation applied after the rotation, m
     /// XYZ Euler angles, degrees: rotate about x, then y, then z, about the bake's origin

@@ -1,5 +1,6 @@
 #include "runtime/scene/scene_schema.hpp"
 
+#include <algorithm>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -31,6 +32,32 @@ namespace {
         key.store = [member](Target target, const Value& value) {
             S& object = *std::get<S*>(target);
             std::visit([&](const auto& v) { assign(object.*member, v); }, value);
+        };
+        return key;
+    }
+
+    /// A string key with a fixed set of choices, stored into the enum (or bool) `member`: the
+    /// i-th choice is the value i (for a bool: the first choice is true).
+    template <typename S, typename E>
+    KeySpec enum_key(
+        Section section, const char* name, E S::*member, std::initializer_list<const char*> names)
+    {
+        static_assert(std::is_enum_v<E> || std::is_same_v<E, bool>);
+        const std::vector<std::string> choices(names.begin(), names.end());
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = Type::string;
+        key.choices = choices;
+        key.store = [member, choices](Target target, const Value& value) {
+            const auto at = std::find(choices.begin(), choices.end(), std::get<std::string>(value));
+            MAT_CHECK(at != choices.end(), "scene schema: '{}' is not a choice of its key",
+                std::get<std::string>(value));
+            const auto index = static_cast<int>(at - choices.begin());
+            if constexpr (std::is_same_v<E, bool>)
+                (*std::get<S*>(target)).*member = index == 0;
+            else
+                (*std::get<S*>(target)).*member = static_cast<E>(index);
         };
         return key;
     }
@@ -139,9 +166,8 @@ namespace {
                 .at_least(0)
                 .below(1)
                 .set_doc("volume constraints keep det F in [1 - tolerance, 1 + tolerance]"),
-            value_key(S::solver, "projections", T::string, &SolverSettings::projections)
+            enum_key(S::solver, "projections", &SolverSettings::projections, { "fast", "exact" })
                 .set_default("fast")
-                .set_choices({ "fast", "exact" })
                 .set_doc("the local step's SVD: fast (float eigenvectors, exact at rest and under "
                          "rigid motion, about 1e-7 of the size off the exact trajectory) or exact "
                          "(double precision throughout, slower)"),
@@ -150,16 +176,15 @@ namespace {
                 .at_least(0)
                 .set_doc("nodes this close to a plane (fraction of the bake's bounding-box "
                          "diagonal) are contact candidates for a step"),
-            value_key(S::solver, "collision", T::string, &SolverSettings::collision)
+            enum_key(
+                S::solver, "collision", &SolverSettings::collision, { "bounded", "lazy", "off" })
                 .set_default("bounded")
-                .set_choices({ "bounded", "lazy", "off" })
                 .set_doc("collision between objects (and, with self_collision on, within one): "
                          "medial primitives enlarged to enclose the deformed surface (bounded), "
                          "moved only (lazy, can miss under large deformation), or none; a scene "
                          "of one object without self collision has none to detect"),
-            value_key(S::solver, "self_collision", T::string, &SolverSettings::self_collision)
+            enum_key(S::solver, "self_collision", &SolverSettings::self_collision, { "on", "off" })
                 .set_default("off")
-                .set_choices({ "on", "off" })
                 .set_doc("collision between non-adjacent medial primitives of one object (with "
                          "collision on)"),
             value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
@@ -205,9 +230,9 @@ namespace {
                 .set_default_doc("object0, object1, ...")
                 .set_check(check_not_empty)
                 .set_doc("unique name; by default \"object\" and the index in objects"),
-            value_key(S::object, "motion", T::string, &ObjectSettings::motion)
+            enum_key(
+                S::object, "motion", &ObjectSettings::motion, { "dynamic", "static", "kinematic" })
                 .set_default("dynamic")
-                .set_choices({ "dynamic", "static", "kinematic" })
                 .set_doc("dynamic: simulated; static: stays at its placement; kinematic: moves "
                          "rigidly as prescribed (keyframes, or else constant velocity and "
                          "angular_velocity); static and kinematic objects are not simulated and "

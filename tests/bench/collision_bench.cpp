@@ -23,6 +23,7 @@
 #include "runtime/collision/collision_world.hpp"
 #include "runtime/collision/ground_truth.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/bench/collision_bench_cgal.hpp"
 
@@ -107,15 +108,13 @@ int run(int argc, char** argv)
     const int repeats = argc > 3 ? std::atoi(argv[3]) : 50;
     const Scene scene = read_scene(argv[1]);
     MAT_CHECK(scene.objects.size() >= 2, "{}: the benchmark needs two objects", argv[1]);
-    Simulation simulation(scene, SolverKind::semi_reduced);
+    Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
     for (int s = 0; s < steps; ++s)
         simulation.step();
 
-    std::vector<BakeData> bakes;
-    for (const ObjectSettings& object : scene.objects)
-        bakes.push_back(read_bake(object.bake));
-    std::vector<CollisionBodyState> states(bakes.size());
-    for (std::size_t b = 0; b < bakes.size(); ++b) {
+    const std::vector<Body>& bodies = simulation.bodies();
+    std::vector<CollisionBodyState> states(bodies.size());
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
         const Body& body = simulation.bodies()[b];
         states[b].nodes = &body.state.positions;
         states[b].is_static = body.is_static;
@@ -124,13 +123,13 @@ int run(int argc, char** argv)
     const auto make = [&](RadiusUpdate bounds, bool all_pairs, bool from_positions = true) {
         CollisionSettings settings;
         settings.bounds_from_positions = from_positions;
-        settings.self = scene.solver.self_collision == "on";
+        settings.self = scene.solver.self_collision;
         settings.margin = scene.solver.collision_margin;
         settings.bounds = bounds;
         settings.all_pairs = all_pairs;
         CollisionWorld world(settings);
-        for (const BakeData& bake : bakes)
-            world.add_body(bake);
+        for (const Body& body : bodies)
+            world.add_body(body.model);
         return world;
     };
     CollisionWorld bounded = make(RadiusUpdate::bound, false);
@@ -146,8 +145,8 @@ int run(int argc, char** argv)
 
     std::printf("scene %s after %d steps, %d threads, %d repeats; primitives per body:", argv[1],
         steps, thread_count(), repeats);
-    for (const BakeData& bake : bakes)
-        std::printf(" %ld", static_cast<long>(bake.collision.primitive_kind.size()));
+    for (const Body& body : bodies)
+        std::printf(" %ld", static_cast<long>(body.model->primitives().primitive_kind.size()));
     std::printf(
         "; ground truth: %zu intersecting triangle pairs between bodies 0 and 1\n", truth.size());
     std::printf("%-22s %7s %7s %7s %7s %8s | %8s %8s | %6s %6s %8s %8s %6s %6s %7s\n",
@@ -187,8 +186,7 @@ int run(int argc, char** argv)
         t_bounded.missed, t_q_bound.missed, t_lazy.missed, truth.size());
     // The radius increments of the two bounds, relative to the body's rest diagonal.
     for (int b = 0; b < 2; ++b) {
-        const MatX3& rest = bakes[static_cast<std::size_t>(b)].tet_mesh.positions;
-        const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+        const double diagonal = bodies[static_cast<std::size_t>(b)].model->rest_diagonal();
         const VecX& exact = bounded.bounds(b).increments();
         const VecX& bound = q_bound.bounds(b).increments();
         std::printf("body %d radius increments / diagonal: exact per-vertex mean %.5f max %.5f; "

@@ -18,6 +18,7 @@
 #include "common/parallel.hpp"
 #include "common/timer.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 
 namespace {
@@ -59,7 +60,7 @@ int main(int argc, char** argv)
             std::fprintf(stderr, "WARMUP_STEPS must be >= 0 and STEPS >= 1\n");
             return 2;
         }
-        mat::Simulation simulation(scene, mat::parse_solver_kind(solver));
+        mat::Simulation simulation(scene, mat::load_bodies(scene, mat::parse_solver_kind(solver)));
         for (int s = 0; s < warmup; ++s)
             simulation.step();
         const int asleep_before = simulation.num_sleeping();

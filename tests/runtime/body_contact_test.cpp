@@ -19,6 +19,7 @@
 #include "runtime/output/collision_check.hpp"
 #include "runtime/output/measures.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/support/sample_bake.hpp"
 #include "tests/support/temp_files.hpp"
@@ -65,14 +66,14 @@ namespace {
         double mass = 0.0;
         Vec3 centre = Vec3::Zero();
         for (const Body& body : simulation.bodies()) {
-            const VecX& m = body.model->masses();
+            const VecX& m = body.model->pd().masses();
             mass += m.sum();
             centre += body.state.positions.transpose() * m;
         }
         centre /= mass;
         for (std::size_t b = 0; b < simulation.bodies().size(); ++b) {
             const Body& body = simulation.bodies()[b];
-            const VecX& m = body.model->masses();
+            const VecX& m = body.model->pd().masses();
             result.body_linear[b] = body.state.velocities.transpose() * m;
             result.linear += result.body_linear[b];
             for (Index i = 0; i < m.size(); ++i)
@@ -88,7 +89,7 @@ namespace {
         const MomentumParam& p = GetParam();
         write_bake(path("capsule.h5"), test::sample_bake("capsule", 0.1));
         const Scene scene = read_scene(write_text("scene.json", scene_text(p)));
-        Simulation simulation(scene, p.solver);
+        Simulation simulation(scene, load_bodies(scene, p.solver));
         const Momenta before = momenta(simulation);
         const double p0 = before.linear.norm();
         ASSERT_GT(p0, 0.0);
@@ -108,7 +109,7 @@ namespace {
         EXPECT_GT(contact_steps, 0) << "the bodies never met";
         // The target was really pushed (else conservation says nothing): at least 0.4 v0 head-on
         // (a perfectly inelastic impact of equal masses gives it 0.5 v0), 0.2 v0 off-centre.
-        const double target_mass = simulation.bodies()[1].model->masses().sum();
+        const double target_mass = simulation.bodies()[1].model->pd().masses().sum();
         EXPECT_GT(after.body_linear[1].x() / target_mass, (p.offset != 0.0 ? 0.2 : 0.4) * 1.5);
         EXPECT_LE((after.linear - before.linear).norm(), 0.01 * p0)
             << "before " << before.linear.transpose() << ", after " << after.linear.transpose();
@@ -120,8 +121,9 @@ namespace {
                 << "before " << before.angular.transpose() << ", after "
                 << after.angular.transpose();
         }
-        if (p.mass_ratio > 1.0)
+        if (p.mass_ratio > 1.0) {
             EXPECT_GT(after.body_linear[0].x(), 0.0) << "the heavier mover bounced back";
+        }
     }
 
     std::vector<MomentumParam> params()
@@ -188,7 +190,7 @@ namespace {
 }})",
             -p.speed);
         const Scene scene = read_scene(write_text("scene.json", text));
-        Simulation simulation(scene, p.solver);
+        Simulation simulation(scene, load_bodies(scene, p.solver));
         const Body& projectile = simulation.bodies()[1];
         const int steps = scene.frames * scene.steps_per_frame;
         double max_penetration = 0.0;
@@ -257,10 +259,10 @@ namespace {
   ]
 })";
         const Scene scene = read_scene(write_text("scene.json", text));
-        Simulation simulation(scene, GetParam());
+        Simulation simulation(scene, load_bodies(scene, GetParam()));
         const Body& platform = simulation.bodies()[0];
         const Body& rider = simulation.bodies()[1];
-        const VecX& m = rider.model->masses();
+        const VecX& m = rider.model->pd().masses();
         const int steps = scene.frames * scene.steps_per_frame;
         double worst = 0.0;
         for (int s = 1; s <= steps; ++s) {
@@ -331,10 +333,10 @@ namespace {
                 text.replace(at, bake.size(), local);
         }
         const Scene scene = read_scene(write_text("scene.json", text));
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         double smallest = std::numeric_limits<double>::infinity();
         for (const Body& body : simulation.bodies()) {
-            const MatX3& rest = body.model->rest_positions();
+            const MatX3& rest = body.model->pd().rest_positions();
             smallest = std::min(
                 smallest, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
         }
@@ -390,14 +392,14 @@ namespace {
   "objects": [ { "name": "body", "bake": "body.h5",
     "material": { "youngs_modulus": 5e4, "poisson_ratio": 0.4, "density": 1000 } } ]
 })"));
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         ASSERT_NE(simulation.collision(), nullptr);
         const Body& body = simulation.bodies()[0];
         for (int s = 1; s <= 100; ++s) {
             simulation.step();
             ASSERT_EQ(simulation.collision()->last_report().contacts, 0) << "step " << s;
         }
-        const BodyMeasures m = measure_body(*body.model, body.state, scene.gravity);
+        const BodyMeasures m = measure_body(body.model->pd(), body.state, scene.gravity);
         EXPECT_LT(m.kinetic + m.elastic, 1e-12);
     }
 

@@ -11,6 +11,7 @@
 #include "runtime/output/collision_check.hpp"
 #include "runtime/scene/pin_motion.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/runtime/simulation_test_bake.hpp"
 #include "tests/support/temp_files.hpp"
@@ -34,7 +35,7 @@ namespace {
                 "position": [0, 1, 0], "rotation_degrees": [0, 0, 30],
                 "velocity": [0.5, 0, -0.25], "angular_velocity": [0, 2, 0]}]})");
         const Scene scene = read_scene(scene_path);
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Body& body = simulation.bodies()[0];
         EXPECT_TRUE(body.is_kinematic);
         EXPECT_TRUE(body.is_static);
@@ -69,7 +70,7 @@ namespace {
                 "keyframes": [{"time": 0, "translation": [0, 0.5, 0]},
                     {"time": 0.2, "translation": [1, 0.5, 0], "rotation_degrees": [0, 0, 90]}]}]})");
         const Scene scene = read_scene(scene_path);
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Body& body = simulation.bodies()[0];
         const Vec3 rest_centroid = centroid(body.placed_rest);
         // Time 0: the first keyframe.
@@ -102,7 +103,7 @@ namespace {
                  "position": [-0.7, 0, 0], "rotation_degrees": [0, 0, 90],
                  "velocity": [0.5, 0, 0]}]})");
         const Scene scene = read_scene(scene_path);
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Vec3 start = centroid(simulation.bodies()[0].state.positions);
         CollisionCheckCounts total;
         for (int s = 0; s < 40; ++s) {

@@ -12,6 +12,7 @@
 #include "formats/bake_io.hpp"
 #include "runtime/collision/collision_world.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/runtime/simulation_test_bake.hpp"
 #include "tests/support/temp_files.hpp"
@@ -46,7 +47,7 @@ namespace {
         test::write_capsule_bake(path("capsule.h5"));
         const Scene scene
             = read_scene(write_text("scene.json", scene_text("", capsule("rest", "[0, 0.12, 0]"))));
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Body& body = simulation.bodies()[0];
         int steps = 0;
         while (!body.asleep && steps < 100) {
@@ -76,7 +77,7 @@ namespace {
             scene_text("",
                 capsule("bottom", "[0, 0.12, 0]") + ", "
                     + capsule("dropped", "[0, 2.6, 0]", R"(, "rotation_degrees": [0, 90, 0])"))));
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Body& bottom = simulation.bodies()[0];
         const Body& dropped = simulation.bodies()[1];
         int slept_at = -1, woke_at = -1, first_contact = -1;
@@ -119,8 +120,8 @@ namespace {
         const Scene on = read_scene(write_text("on.json", scene_text("", objects)));
         const Scene off
             = read_scene(write_text("off.json", scene_text(R"(, "sleep_speed": 0)", objects)));
-        Simulation a(on, SolverKind::semi_reduced);
-        Simulation b(off, SolverKind::semi_reduced);
+        Simulation a(on, load_bodies(on, SolverKind::semi_reduced));
+        Simulation b(off, load_bodies(off, SolverKind::semi_reduced));
         int contacts = 0;
         for (int s = 0; s < 30; ++s) {
             a.step();
@@ -144,7 +145,7 @@ namespace {
                        {"time": 1.2, "translation": [0, 0.2, 0]}]}])";
         const Scene scene = read_scene(
             write_text("scene.json", scene_text("", capsule("pinned", "[0, 0.12, 0]", pins))));
-        Simulation simulation(scene, SolverKind::semi_reduced);
+        Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         const Body& body = simulation.bodies()[0];
         bool slept = false;
         while (simulation.time() < 1.0 - 1e-9) {
@@ -191,9 +192,10 @@ namespace {
         CollisionWorld culled(settings);
         settings.object_culling = false;
         CollisionWorld all(settings);
+        const auto model = BodyModel::from_bake(bake);
         for (std::size_t b = 0; b < nodes.size(); ++b) {
-            culled.add_body(bake);
-            all.add_body(bake);
+            culled.add_body(model);
+            all.add_body(model);
         }
         const auto contacts_culled = culled.detect(states);
         const auto contacts_all = all.detect(states);

@@ -23,6 +23,7 @@
 #include "formats/bake_io.hpp"
 #include "runtime/output/measures.hpp"
 #include "runtime/scene/scene.hpp"
+#include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"
 #include "tests/support/sample_bake.hpp"
 #include "tests/support/temp_files.hpp"
@@ -67,7 +68,7 @@ namespace {
         const std::string text = read_text(source);
         ASSERT_FALSE(text.empty()) << source;
         const Scene scene = read_scene(write_text("scene.json", text));
-        Simulation simulation(scene, param.solver);
+        Simulation simulation(scene, load_bodies(scene, param.solver));
 
         const long steps = static_cast<long>(scene.frames) * scene.steps_per_frame;
         double max_strain = 0.0, last_strain = 0.0, quiet_energy = 0.0, rise = 0.0;
@@ -84,7 +85,7 @@ namespace {
                 if (body.is_static)
                     continue;
                 ASSERT_TRUE(body.state.positions.allFinite());
-                const BodyMeasures m = measure_body(*body.model, body.state, scene.gravity);
+                const BodyMeasures m = measure_body(body.model->pd(), body.state, scene.gravity);
                 energy += m.kinetic + m.potential + m.elastic;
                 last_strain = std::max(last_strain, m.max_strain);
             }

@@ -52,8 +52,8 @@ namespace {
     CollisionWorld make_world(const CollisionSettings& settings)
     {
         CollisionWorld world(settings);
-        world.add_body(creature_bake());
-        world.add_body(creature_bake());
+        world.add_body(BodyModel::from_bake(creature_bake()));
+        world.add_body(BodyModel::from_bake(creature_bake()));
         return world;
     }
 

@@ -18,8 +18,8 @@
 
 #include <tbb/task_arena.h>
 
+#include "common/surface_embedding.hpp"
 #include "runtime/collision/triangle_tests.hpp"
-#include "runtime/output/surface_view.hpp"
 #include "runtime/pd/contact.hpp"
 #include "tests/support/sample_bake.hpp"
 
@@ -49,7 +49,7 @@ namespace {
                 return out;
             };
             nodes = place(bake.tet_mesh.positions);
-            const SurfaceView surface_view(bake);
+            const SurfaceEmbedding surface_view(bake);
             surface.resize(surface_view.num_vertices(), 3);
             surface_view.positions(nodes, surface);
             faces = surface_view.faces();

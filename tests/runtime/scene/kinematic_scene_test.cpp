@@ -43,7 +43,7 @@ namespace {
         const Scene scene = parse(with_object(R"("motion": "kinematic", "keyframes": [
             {"time": 0}, {"time": 0.5, "translation": [1, 2, 3], "rotation_degrees": [0, 90, 0]}])"));
         const ObjectSettings& object = scene.objects[0];
-        EXPECT_EQ(object.motion, "kinematic");
+        EXPECT_EQ(object.motion, ObjectMotion::kinematic);
         ASSERT_EQ(object.keyframes.size(), 2u);
         EXPECT_EQ(object.keyframes[0].translation, Vec3::Zero());
         EXPECT_EQ(object.keyframes[1].time, 0.5);

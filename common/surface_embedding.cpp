@@ -1,4 +1,4 @@
-#include "runtime/output/surface_view.hpp"
+#include "common/surface_embedding.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -7,7 +7,7 @@
 
 namespace mat {
 
-SurfaceView::SurfaceView(const BakeData& bake)
+SurfaceEmbedding::SurfaceEmbedding(const BakeData& bake)
 {
     const Index vs = bake.surface.positions.rows();
     const Index t = bake.tet_mesh.num_tets();
@@ -30,9 +30,9 @@ SurfaceView::SurfaceView(const BakeData& bake)
     m_tet = bake.surface_tet;
 }
 
-void SurfaceView::positions(const Eigen::Ref<const MatX3>& nodes, Eigen::Ref<MatX3> out) const
+void SurfaceEmbedding::positions(const Eigen::Ref<const MatX3>& nodes, Eigen::Ref<MatX3> out) const
 {
-    MAT_CHECK(out.rows() == m_nodes.rows(), "surface view: output has {} rows, expected {}",
+    MAT_CHECK(out.rows() == m_nodes.rows(), "surface embedding: output has {} rows, expected {}",
         out.rows(), m_nodes.rows());
     tbb::parallel_for(
         tbb::blocked_range<Index>(0, m_nodes.rows()), [&](const tbb::blocked_range<Index>& range) {

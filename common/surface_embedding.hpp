@@ -1,17 +1,19 @@
 #pragma once
 // The bake's surface carried by the tet mesh: each surface vertex is a fixed barycentric
-// combination of the 4 nodes of its tet (the bake's embedding), so the rendered surface follows
-// the simulated nodes exactly. Flat arrays, parallel, no allocation per call.
+// combination of the 4 nodes of its tet (the bake's embedding, docs/method.md section 2), so the
+// rendered surface follows the simulated nodes exactly. The one definition of the embedding, for
+// the baker (mat-bake --error) and the runtime (contacts, frames, checks). Flat arrays, parallel,
+// no allocation per call.
 
 #include "common/bake_data.hpp"
 #include "common/eigen_types.hpp"
 
 namespace mat {
 
-class SurfaceView {
+class SurfaceEmbedding {
 public:
     /// Throws mat::Error if the embedding's shapes disagree with the surface or the tet mesh.
-    explicit SurfaceView(const BakeData& bake);
+    explicit SurfaceEmbedding(const BakeData& bake);
 
     Index num_vertices() const { return m_nodes.rows(); }
     const MatX3i& faces() const { return m_faces; } ///< F x 3

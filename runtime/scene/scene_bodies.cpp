@@ -1,0 +1,204 @@
+#include "runtime/scene/scene_bodies.hpp"
+
+#include <map>
+
+#include "common/error.hpp"
+#include "common/log.hpp"
+#include "formats/bake_io.hpp"
+#include "runtime/pd/hyper_reduced.hpp"
+#include "runtime/scene/pin_motion.hpp"
+
+namespace mat {
+
+namespace {
+
+    Material material_of(const MaterialSettings& settings)
+    {
+        Material material;
+        material.youngs_modulus = settings.youngs_modulus;
+        material.poisson_ratio = settings.poisson_ratio;
+        material.density = settings.density;
+        if (settings.strain_limits) {
+            material.strain_limit_min = (*settings.strain_limits)(0);
+            material.strain_limit_max = (*settings.strain_limits)(1);
+        }
+        return material;
+    }
+
+    /// The nodes of `region` (bake coordinates), increasing. Throws naming `key` if none.
+    std::vector<int> region_nodes(const PinRegion& region, const MatX3& rest,
+        const std::string& scene_file, const std::string& key)
+    {
+        std::vector<int> nodes;
+        const Index n = rest.rows();
+        switch (region.kind) {
+        case PinKind::box:
+            for (Index i = 0; i < n; ++i) {
+                const Vec3 x = rest.row(i).transpose();
+                if ((x.array() >= region.box.min.array()).all()
+                    && (x.array() <= region.box.max.array()).all())
+                    nodes.push_back(static_cast<int>(i));
+            }
+            break;
+        case PinKind::sphere:
+            for (Index i = 0; i < n; ++i)
+                if ((rest.row(i).transpose() - region.sphere.center).norm() <= region.sphere.radius)
+                    nodes.push_back(static_cast<int>(i));
+            break;
+        case PinKind::nodes:
+            for (const int i : region.nodes) {
+                if (i < 0 || i >= n)
+                    throw_error("{}: {}.nodes: node {} is out of range [0, {}) for this bake",
+                        scene_file, key, i, n);
+                nodes.push_back(i);
+            }
+            break;
+        }
+        if (nodes.empty())
+            throw_error("{}: {}: the region contains no node of the bake's tet mesh (regions are "
+                        "in the bake's coordinates)",
+                scene_file, key);
+        return nodes;
+    }
+
+    /// The body's pin groups (each node in the first region that selects it) and the model
+    /// options that pin them at their placed rest positions.
+    ModelOptions pin_body(Body& body, const Scene& scene, std::size_t index,
+        const ObjectSettings& object, const MatX3& rest, SolverKind solver_kind)
+    {
+        const std::string key = fmt::format("objects[{}]", index);
+        ModelOptions options;
+        options.time_step = scene.time.dt;
+        options.volume_tolerance = scene.solver.volume_tolerance;
+        // Reduced bodies pin softly (solver.reduced_pin_stiffness): stiff pins on every pinned node
+        // freeze each handle whose weights reach into the pinned region (locking).
+        if (solver_kind != SolverKind::full)
+            options.pin_weight_scale = scene.solver.reduced_pin_stiffness;
+        std::vector<char> taken(rest.rows(), 0);
+        for (std::size_t p = 0; p < object.pins.size(); ++p) {
+            PinGroup group;
+            group.region = &object.pins[p];
+            for (const int i : region_nodes(
+                     object.pins[p], rest, scene.file, fmt::format("{}.pins[{}]", key, p))) {
+                if (taken[i])
+                    continue;
+                taken[i] = 1;
+                group.nodes.push_back(i);
+                group.slots.push_back(static_cast<int>(options.pinned_nodes.size()));
+                options.pinned_nodes.push_back(i);
+                group.centroid += rest.row(i).transpose();
+            }
+            if (!group.nodes.empty())
+                group.centroid /= static_cast<double>(group.nodes.size());
+            body.pins.push_back(std::move(group));
+        }
+        options.pin_targets.resize(static_cast<Index>(options.pinned_nodes.size()), 3);
+        for (Index p = 0; p < options.pin_targets.rows(); ++p)
+            options.pin_targets.row(p)
+                = (body.rotation * rest.row(options.pinned_nodes[p]).transpose() + body.translation)
+                      .transpose();
+        return options;
+    }
+
+    std::unique_ptr<PdSolver> make_solver(
+        const Model& model, const Scene& scene, SolverKind solver_kind)
+    {
+        SolverOptions options;
+        options.iterations = scene.time.iterations;
+        options.gravity = scene.gravity;
+        options.damping = scene.solver.damping;
+        options.exact_projections = scene.solver.projections == ProjectionMode::exact;
+        options.contact_margin = scene.solver.contact_margin;
+        for (const ColliderSettings& collider : scene.colliders)
+            options.planes.push_back(
+                PlaneCollider { collider.point, collider.normal, collider.friction });
+        switch (solver_kind) {
+        case SolverKind::full:
+            return std::make_unique<FullSolver>(model, options);
+        case SolverKind::hyper_reduced:
+            return std::make_unique<HyperReducedSolver>(model, options, scene.solver.hyper_samples);
+        case SolverKind::semi_reduced:
+            break;
+        }
+        return std::make_unique<SemiReducedSolver>(model, options);
+    }
+
+    /// Initial state: placed rest positions, v + w x (x - centre of mass); pinned nodes, static
+    /// bodies at rest; a kinematic body at its motion's start.
+    void place_body(Body& body, const ObjectSettings& object)
+    {
+        const MatX3& rest = body.model->pd().rest_positions();
+        const Index n = rest.rows();
+        body.state.positions.resize(n, 3);
+        for (Index i = 0; i < n; ++i)
+            body.state.positions.row(i)
+                = (body.rotation * rest.row(i).transpose() + body.translation).transpose();
+        const VecX& masses = body.model->pd().masses();
+        const Vec3 centre
+            = (body.state.positions.transpose() * masses) / std::max(masses.sum(), 1e-300);
+        body.state.velocities.resize(n, 3);
+        for (Index i = 0; i < n; ++i)
+            body.state.velocities.row(i) = (object.velocity
+                + object.angular_velocity.cross(body.state.positions.row(i).transpose() - centre))
+                                               .transpose();
+        for (const PinGroup& group : body.pins)
+            for (const int i : group.nodes)
+                body.state.velocities.row(i).setZero();
+        body.placed_centre = centre;
+        if (body.is_kinematic) {
+            // Its keyframes may not start at the placement; velocities as given (constant
+            // motion) or zero (keyframes: the first step's finite difference follows).
+            body.placed_rest = body.state.positions;
+            if (!object.keyframes.empty()) {
+                body.state.positions = apply_pin_transform(
+                    kinematic_motion_at(object, 0.0, centre), body.placed_rest);
+                body.state.velocities.setZero();
+            }
+        } else if (body.is_static) {
+            body.state.velocities.setZero();
+        }
+    }
+
+    Body build_body(
+        const Scene& scene, std::size_t index, const BakeData& bake, SolverKind solver_kind)
+    {
+        const ObjectSettings& object = scene.objects[index];
+        Body body;
+        body.name = object.name;
+        body.object = &object;
+        body.rotation = rotation_from_euler_degrees(object.rotation_degrees);
+        body.translation = object.position;
+        body.is_static = object.motion != ObjectMotion::dynamic;
+        body.is_kinematic = object.motion == ObjectMotion::kinematic;
+        const MatX3& rest = bake.tet_mesh.positions;
+        const ModelOptions options = pin_body(body, scene, index, object, rest, solver_kind);
+        body.model = std::make_shared<const BodyModel>(bake, material_of(object.material), options);
+        body.solver = make_solver(body.model->pd(), scene, solver_kind);
+        place_body(body, object);
+        body.pin_targets = options.pin_targets;
+        update_pin_targets(body, 0.0);
+        if (!body.is_static)
+            body.sleep_speed = scene.solver.sleep_speed * body.model->rest_diagonal();
+        logger().info("{}: {} nodes, {} tets, {} handles, {} columns, {} pinned nodes", body.name,
+            rest.rows(), body.model->pd().num_tets(), body.model->num_handles(),
+            body.model->pd().num_columns(), options.pinned_nodes.size());
+        return body;
+    }
+
+} // namespace
+
+std::vector<Body> load_bodies(const Scene& scene, SolverKind solver_kind)
+{
+    // Each bake file is read once, kept only while its objects are built.
+    std::map<std::string, BakeData> bakes;
+    for (const ObjectSettings& object : scene.objects)
+        if (bakes.find(object.bake) == bakes.end())
+            bakes.emplace(object.bake, read_bake(object.bake));
+    std::vector<Body> bodies;
+    bodies.reserve(scene.objects.size());
+    for (std::size_t o = 0; o < scene.objects.size(); ++o)
+        bodies.push_back(build_body(scene, o, bakes.at(scene.objects[o].bake), solver_kind));
+    return bodies;
+}
+
+} // namespace mat
