@@ -2,7 +2,7 @@
 // One body of a run: its immutable BodyModel (runtime/body_model.hpp, built once from its bake)
 // and what changes as it moves (state, solver workspace, pins, sleep). Bodies are built from a
 // scene by runtime/scene/scene_bodies.hpp, stepped by runtime/simulation.hpp, written by
-// runtime/output/exporter.hpp and measured by runtime/checks/.
+// runtime/output/exporter.hpp and measured by runtime/measures/.
 
 #include <memory>
 #include <string>

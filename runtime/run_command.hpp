@@ -13,7 +13,7 @@ struct RunOptions {
     std::string solver = "semi"; ///< "semi" (semi-reduced PD) or "full" (full-space PD)
     std::string stats; ///< --stats FILE.json, "" for none
     /// After each step, compare the collision world's triangle pairs with the exhaustive ground
-    /// truth and measure the penetration (runtime/output/collision_check.hpp).
+    /// truth and measure the penetration (runtime/measures/collision_check.hpp).
     bool check_collisions = false;
     /// Render every output frame to OUTDIR/preview/frame_fffff.png (runtime/output/preview.hpp)
     /// and, where ffmpeg is on PATH, OUTDIR/preview.mp4.
@@ -23,7 +23,7 @@ struct RunOptions {
     /// --reference REF.h5, "" for none: a trajectory cache of the same scene (e.g. full-space PD
     /// at many iterations). The run then always writes OUTDIR/trajectory.h5 (h5 is added to the
     /// scene's output formats if missing) and, at the end, prints the RMS and max surface
-    /// distance to REF.h5 (runtime/output/trajectory_error.hpp) and adds them to --stats as
+    /// distance to REF.h5 (runtime/measures/trajectory_error.hpp) and adds them to --stats as
     /// "reference_error": {"rms_percent", "max_percent", "diagonal", "reference",
     /// "frame_rms_percent", "frame_max_percent"} (the last two: per output frame).
     std::string reference;

@@ -21,7 +21,7 @@
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
 #include "runtime/collision/collision_world.hpp"
-#include "runtime/collision/ground_truth.hpp"
+#include "runtime/measures/ground_truth.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"

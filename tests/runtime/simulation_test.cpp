@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "runtime/output/collision_check.hpp"
+#include "runtime/measures/collision_check.hpp"
 #include "runtime/scene/pin_motion.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/scene/scene_bodies.hpp"

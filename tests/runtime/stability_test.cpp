@@ -21,7 +21,7 @@
 #include <gtest/gtest.h>
 
 #include "formats/bake_io.hpp"
-#include "runtime/output/measures.hpp"
+#include "runtime/measures/body_measures.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/scene/scene_bodies.hpp"
 #include "runtime/simulation.hpp"

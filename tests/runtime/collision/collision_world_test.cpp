@@ -13,7 +13,7 @@
 
 #include <tbb/task_arena.h>
 
-#include "runtime/collision/ground_truth.hpp"
+#include "runtime/measures/ground_truth.hpp"
 #include "tests/support/allocation_counter.hpp"
 #include "tests/support/sample_bake.hpp"
 

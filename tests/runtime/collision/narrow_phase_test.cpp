@@ -49,10 +49,10 @@ namespace {
                 return out;
             };
             nodes = place(bake.tet_mesh.positions);
-            const SurfaceEmbedding surface_view(bake);
-            surface.resize(surface_view.num_vertices(), 3);
-            surface_view.positions(nodes, surface);
-            faces = surface_view.faces();
+            const SurfaceEmbedding embedding(bake);
+            surface.resize(embedding.num_vertices(), 3);
+            embedding.positions(nodes, surface);
+            faces = embedding.faces();
             const MatX3 centers = place(bake.medial.centers);
             const MedialCollisionData& collision = bake.collision;
             const Index num_primitives = collision.primitive_kind.size();

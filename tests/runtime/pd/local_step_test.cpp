@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "common/parallel.hpp"
+#include "runtime/measures/body_measures.hpp"
 #include "runtime/model.hpp"
-#include "runtime/output/measures.hpp"
 #include "runtime/pd/local_step.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
 

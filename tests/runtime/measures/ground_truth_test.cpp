@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "runtime/collision/ground_truth.hpp"
 #include "runtime/collision/triangle_tests.hpp"
+#include "runtime/measures/ground_truth.hpp"
 #include "tests/support/error_checks.hpp"
 
 namespace mat {

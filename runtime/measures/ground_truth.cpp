@@ -7,7 +7,7 @@
 // holds the low corner of the intersection of the two boxes' cross-sections. A triangle whose
 // box meets more than max_columns columns is oversize: it is swept against every triangle.
 
-#include "runtime/collision/ground_truth.hpp"
+#include "runtime/measures/ground_truth.hpp"
 
 #include <algorithm>
 #include <array>

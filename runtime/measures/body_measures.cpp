@@ -1,4 +1,4 @@
-#include "runtime/output/measures.hpp"
+#include "runtime/measures/body_measures.hpp"
 
 #include <algorithm>
 #include <cmath>

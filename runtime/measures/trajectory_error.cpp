@@ -1,4 +1,4 @@
-#include "runtime/output/trajectory_error.hpp"
+#include "runtime/measures/trajectory_error.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "runtime/output/collision_check.hpp"
+#include "runtime/measures/collision_check.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 
 #include "common/error.hpp"
 #include "common/timer.hpp"
-#include "runtime/collision/ground_truth.hpp"
 #include "runtime/collision/triangle_tests.hpp"
+#include "runtime/measures/ground_truth.hpp"
 
 namespace mat {
 

@@ -6,7 +6,7 @@
 
 #include "common/error.hpp"
 #include "formats/trajectory_io.hpp"
-#include "runtime/output/trajectory_error.hpp"
+#include "runtime/measures/trajectory_error.hpp"
 #include "tests/support/error_checks.hpp"
 #include "tests/support/random_data.hpp"
 #include "tests/support/temp_files.hpp"

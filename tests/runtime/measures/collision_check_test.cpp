@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/error.hpp"
-#include "runtime/output/collision_check.hpp"
+#include "runtime/measures/collision_check.hpp"
 #include "runtime/run_command.hpp"
 #include "tests/runtime/simulation_test_bake.hpp"
 #include "tests/support/temp_files.hpp"
