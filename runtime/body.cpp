@@ -5,17 +5,6 @@
 
 namespace mat {
 
-SolverKind parse_solver_kind(const std::string& name)
-{
-    if (name == "semi")
-        return SolverKind::semi_reduced;
-    if (name == "full")
-        return SolverKind::full;
-    if (name == "hyper")
-        return SolverKind::hyper_reduced;
-    throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
-}
-
 bool update_pin_targets(Body& body, double time)
 {
     const MatX3& rest = body.model->pd().rest_positions();

@@ -16,14 +16,6 @@
 
 namespace mat {
 
-/// semi: the reduced global step over every tet's local step; full: the full-space global step
-/// (the reference); hyper: the reduced global step fitted from a sample of tets
-/// (runtime/pd/solver.hpp).
-enum class SolverKind { semi_reduced, full, hyper_reduced };
-
-/// "semi", "full" or "hyper" -> SolverKind; throws mat::Error otherwise.
-SolverKind parse_solver_kind(const std::string& name);
-
 /// One pinned region of a body: its nodes (indices into the model's pinned list and the mesh).
 struct PinGroup {
     const PinRegion* region = nullptr;

@@ -98,9 +98,9 @@ StaticSolution solve_static(const BakeData& bake, const Box3& box, const LoadCas
     solver_options.exact_projections = true;
     std::unique_ptr<PdSolver> solver;
     if (full_space)
-        solver = std::make_unique<FullSolver>(model, solver_options);
+        solver = make_solver(SolverKind::full, model, solver_options);
     else
-        solver = std::make_unique<SemiReducedSolver>(model, solver_options);
+        solver = make_solver(SolverKind::semi_reduced, model, solver_options);
 
     const double diagonal = box.diagonal().norm();
     State state = State::at_rest(model);

@@ -56,7 +56,7 @@ struct StaticSolution {
 void pinned_nodes(const BakeData& bake, const Box3& box, const LoadCase& load,
     std::vector<int>& nodes, MatX3& targets);
 
-/// Solves `load` on `bake` in full space (FullSolver) or reduced (SemiReducedSolver). Throws
+/// Solves `load` on `bake` in full space (full_solver) or reduced (semi_reduced_solver). Throws
 /// mat::Error if no node is pinned or the solve fails.
 StaticSolution solve_static(const BakeData& bake, const Box3& box, const LoadCase& load,
     bool full_space, const StaticSolveOptions& options);

@@ -266,7 +266,7 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         BodyData& data = m_data[b];
         std::sort(data.nodes.begin(), data.nodes.end());
         data.nodes.erase(std::unique(data.nodes.begin(), data.nodes.end()), data.nodes.end());
-        GlobalStep& global = bodies[b].solver->global_step();
+        ContactResponse& global = bodies[b].solver->contact_response();
         global.prepare_nodes(data.nodes);
         if (data.pool_used > data.responses.cols())
             data.responses.resize(
@@ -279,7 +279,8 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         for (int s = 0; s < record.num_sides; ++s) {
             Side& side = record.sides[static_cast<std::size_t>(s)];
             BodyData& body = m_data[static_cast<std::size_t>(side.body)];
-            const GlobalStep& step = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+            const ContactResponse& step
+                = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
             body.slots.resize(static_cast<std::size_t>(step.response_size()), -1);
             side.dir_first = static_cast<int>(m_dir_index.size());
             step.direction(m_term_node.data() + side.first, m_term_weight.data() + side.first,
@@ -292,8 +293,8 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
             if (side.slot < 0)
                 continue;
             BodyData& data = m_data[static_cast<std::size_t>(side.body)];
-            const GlobalStep& global
-                = m_solvers[static_cast<std::size_t>(side.body)]->global_step();
+            const ContactResponse& global
+                = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
             auto column = data.responses.col(side.slot);
             column.setZero();
             for (int k = side.first; k < side.first + side.count; ++k)
@@ -309,7 +310,7 @@ Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale) c
         return m_data[static_cast<std::size_t>(side.body)].responses.col(side.slot);
     }
     scale = m_term_weight[static_cast<std::size_t>(side.first)];
-    return m_solvers[static_cast<std::size_t>(side.body)]->global_step().node_response(
+    return m_solvers[static_cast<std::size_t>(side.body)]->contact_response().node_response(
         m_term_node[static_cast<std::size_t>(side.first)]);
 }
 
@@ -324,7 +325,7 @@ double ContactStage::side_apply(const Side& side, const Eigen::Ref<const VecX>& 
 
 Vec3 ContactStage::side_position(const Side& side) const
 {
-    return m_solvers[static_cast<std::size_t>(side.body)]->global_step().position(
+    return m_solvers[static_cast<std::size_t>(side.body)]->contact_response().position(
         m_dir_index.data() + side.dir_first, m_dir_value.data() + side.dir_first, side.dir_count,
         side.offset);
 }
@@ -380,7 +381,7 @@ void ContactStage::solve(bool last)
             const Side& side = record.sides[static_cast<std::size_t>(s)];
             double scale = 1.0;
             const auto z = response(side, scale);
-            m_solvers[static_cast<std::size_t>(side.body)]->global_step().add_response(
+            m_solvers[static_cast<std::size_t>(side.body)]->contact_response().add_response(
                 z, scale * m_forces.row(a));
         }
     }

@@ -16,7 +16,7 @@
 // iteration (Moreau-Jean non-smooth contact dynamics; runtime/pd/contact.hpp): the global step is
 // linear, so forces f_d move the relative points by W_cd f_d with the Delassus operator
 //   W_cd = sum over bodies b of J_cb D_b J_db^T,
-// D_b body b's compliance (its global step's response, GlobalStep) and J_cb the weights of
+// D_b body b's compliance (its global step's ContactResponse) and J_cb the weights of
 // contact c's terms on b. W is isotropic (D acts alike on x, y and z). The projected Gauss-Seidel
 // solve of runtime/pd/contact.hpp then runs on the relative points unchanged; a column of W is
 // computed when its contact first pushes. A contact with several terms on a body keeps the
@@ -122,7 +122,8 @@ private:
         int first = 0; ///< into m_term_node / m_term_weight
         int count = 0;
         int slot = -1; ///< its response's column in the body's pool; -1: one term (node response)
-        int dir_first = 0; ///< its direction (GlobalStep::direction) in m_dir_index / m_dir_value
+        int dir_first
+            = 0; ///< its direction (ContactResponse::direction) in m_dir_index / m_dir_value
         int dir_count = 0;
         Vec3 offset = Vec3::Zero();
     };
@@ -144,7 +145,7 @@ private:
         std::vector<int> nodes; ///< this step's nodes with a response
         MatX responses; ///< pool of multi-term responses, one column each
         int pool_used = 0;
-        std::vector<int> slots; ///< GlobalStep::direction's scratch
+        std::vector<int> slots; ///< ContactResponse::direction's scratch
     };
 
     void init_body(int b, PdSolver& solver);

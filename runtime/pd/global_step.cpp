@@ -163,14 +163,6 @@ void ReducedGlobalStep::solve(const LocalSums& rhs, SolverTimings& timings)
     timings.solve += timer.seconds();
 }
 
-Vec3 ReducedGlobalStep::node_position(int node) const
-{
-    Eigen::RowVector3d x = m_model.rest_positions().row(node);
-    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
-        x += it.value() * m_q.row(it.index());
-    return x.transpose();
-}
-
 void ReducedGlobalStep::prepare_nodes(const std::vector<int>& nodes)
 {
     for (const int node : m_cache.update(nodes)) {
@@ -254,11 +246,6 @@ void FullGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
     m_cholesky.solve_in_place_rows(rhs);
     m_x = rhs;
     timings.solve += timer.seconds();
-}
-
-Vec3 FullGlobalStep::node_position(int node) const
-{
-    return m_x.row(node).transpose();
 }
 
 void FullGlobalStep::prepare_nodes(const std::vector<int>& nodes)

@@ -13,6 +13,7 @@
 #include "common/sparse_cholesky.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/basis_products.hpp"
+#include "runtime/pd/contact_response.hpp"
 
 namespace mat {
 
@@ -45,38 +46,8 @@ public:
     {
         throw_error("global step: this step needs the right-hand side written out");
     }
-    /// Position of `node` in the kept solution.
-    virtual Vec3 node_position(int node) const = 0;
-
-    // The compliance D of the contact stage (runtime/pd/contact_stage.hpp): how a force added to
-    // the right-hand side moves the kept solution. A force f at node j moves the solution by its
-    // response z_j f^T (z_j = S^-1 b_j^T reduced, A^-1 e_j full, a vector of response_size()),
-    // and node i by D_ij f with D_ij = apply(i, z_j).
-
-    /// Length of a response vector (k reduced, n full).
-    virtual Index response_size() const = 0;
-    /// Makes the responses of `nodes` available (cached across calls while the nodes stay in
-    /// the list; nodes dropped from the list are forgotten).
-    virtual void prepare_nodes(const std::vector<int>& nodes) = 0;
-    /// z_j of a prepared node.
-    virtual Eigen::Ref<const VecX> node_response(int node) const = 0;
-    /// How far node i moves along a response: the row of node i applied to `response`.
-    virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
-    /// Adds `response` f^T to the kept solution (the displacement of a force f).
-    virtual void add_response(
-        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
-        = 0;
-    /// A point carried by nodes, x = sum_t weights_t x_{nodes_t}, as a sparse row over the
-    /// response space: x = offset + sum_i value_i u_i (u the kept solution's rows: q reduced, x
-    /// full), and D applied to a response z is sum_i value_i z_i. Appends (index, value) pairs
-    /// in the order of the nodes' rows; `slots` (response_size(), all -1) is scratch, returned
-    /// all -1.
-    virtual void direction(const int* nodes, const double* weights, int count,
-        std::vector<int>& index, std::vector<double>& value, Vec3& offset,
-        std::vector<int>& slots) const = 0;
-    /// The point of a direction in the kept solution.
-    virtual Vec3 position(
-        const int* index, const double* value, int count, const Vec3& offset) const = 0;
+    /// How the kept solution answers a contact force (the contact stage's view of this step).
+    virtual ContactResponse& contact_response() = 0;
     /// The kept reduced coordinates q  k x 3, or null for a full-space step.
     virtual const MatX* reduced_coordinates() const { return nullptr; }
     /// Writes the kept solution's positions  n x 3.
@@ -107,7 +78,7 @@ private:
 /// model (dense LLT). Up to dense_inverse_limit columns, the step keeps S^-1 itself and a solve
 /// is one product of it with the three right-hand sides, in row blocks in parallel: triangular
 /// solves are sequential, and on the sample creature (580 columns) took 6% of a step.
-class ReducedGlobalStep final : public GlobalStep {
+class ReducedGlobalStep final : public GlobalStep, public ContactResponse {
 public:
     explicit ReducedGlobalStep(const Model& model);
     /// Subtracts A X (the displacement form's shift).
@@ -115,7 +86,7 @@ public:
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
     bool takes_local_sums() const override { return true; }
     void solve(const LocalSums& rhs, SolverTimings& timings) override;
-    Vec3 node_position(int node) const override;
+    ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_q.rows(); }
     void prepare_nodes(const std::vector<int>& nodes) override;
     Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
@@ -154,12 +125,12 @@ private:
 inline constexpr Index dense_inverse_limit = 1500;
 
 /// Full-space global step with CHOLMOD (the accuracy reference and speed baseline).
-class FullGlobalStep final : public GlobalStep {
+class FullGlobalStep final : public GlobalStep, public ContactResponse {
 public:
     /// Factors the model's full system (throws mat::Error if that fails).
     explicit FullGlobalStep(const Model& model);
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
-    Vec3 node_position(int node) const override;
+    ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_x.rows(); }
     void prepare_nodes(const std::vector<int>& nodes) override;
     Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }

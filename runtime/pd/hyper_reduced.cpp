@@ -76,10 +76,9 @@ namespace {
 
 } // namespace
 
-HyperReducedSolver::HyperReducedSolver(
-    const Model& model, const SolverOptions& options, Index samples)
-    : PdSolver(model, options, std::make_unique<ReducedGlobalStep>(model), false)
-    , m_reduced(static_cast<ReducedGlobalStep*>(&global_step()))
+SampledLocalStage::SampledLocalStage(
+    const Model& model, bool exact_projections, Index samples, ReducedGlobalStep& reduced)
+    : m_reduced(&reduced)
 {
     Timer timer;
     const Index k = model.num_columns();
@@ -95,7 +94,7 @@ HyperReducedSolver::HyperReducedSolver(
     std::sort(m_sample_nodes.begin(), m_sample_nodes.end());
     m_sample_nodes.erase(
         std::unique(m_sample_nodes.begin(), m_sample_nodes.end()), m_sample_nodes.end());
-    m_local = std::make_unique<LocalStep>(model, options.exact_projections, m_samples);
+    m_local = std::make_unique<LocalStep>(model, exact_projections, m_samples);
     // The basis rows of the sample nodes, compact (CSR).
     const SparseRowMatrix& basis_rows = model.basis();
     m_row_offsets.assign(1, 0);
@@ -142,15 +141,16 @@ HyperReducedSolver::HyperReducedSolver(
         m_samples.size(), model.num_tets(), m_sample_nodes.size(), k, k, timer.seconds());
 }
 
-HyperReducedSolver::~HyperReducedSolver() = default;
+SampledLocalStage::~SampledLocalStage() = default;
 
 // Per iteration: the samples' positions from q, their local step r_S, y = B^T r_S, and
 //   q = S^-1 (B^T base + w (B^T L X - K H^-1 B^T L_S X)) + S^-1 K H^-1 y,
 // the first term once per step.
-void HyperReducedSolver::local_global(const Model& model, int iteration,
-    const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base)
+void SampledLocalStage::iterate(const Model& model, int iteration,
+    const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base,
+    GlobalStep& global, SolverTimings& timings)
 {
-    SolverTimings& timings = mutable_timings();
+    MAT_CHECK(&global == m_reduced, "hyper-reduced: solving with another global step");
     Timer timer;
     const Index count = static_cast<Index>(m_sample_nodes.size());
     if (iteration == 0) {

@@ -1,7 +1,8 @@
 #pragma once
 // Hyper-reduced projective dynamics (Brandt et al. 2018, "Hyper-reduced projective dynamics"):
 // the semi-reduced solver with the local step on a sample of the tets only, and the right-hand
-// side of the reduced global step fitted from the samples' projections.
+// side of the reduced global step fitted from the samples' projections: a local stage
+// (SampledLocalStage) composed with the reduced global step (make_solver, solver.hpp).
 //
 // The semi-reduced right-hand side needs B^T r, r = sum_e vol_e G_e^T T_e^T over every tet
 // (T_e = w_r R_e + w_v V_e + w_l L_e, the weighted projections; local_step.hpp). Here the
@@ -36,21 +37,24 @@ namespace mat {
 /// index), returned in ascending order. `count` is clamped to [1, #tets].
 std::vector<int> farthest_point_tets(const Model& model, Index count);
 
-class HyperReducedSolver final : public PdSolver {
+/// The local step over a sample of tets, fitted to the reduced global step's right-hand side.
+class SampledLocalStage final : public LocalStage {
 public:
     /// `samples`: tets in the local step; 0 = automatic (four times the number of reduced
-    /// coordinates per axis, 4k, at least 256), clamped to the number of tets.
-    explicit HyperReducedSolver(
-        const Model& model, const SolverOptions& options = {}, Index samples = 0);
-    ~HyperReducedSolver() override;
+    /// coordinates per axis, 4k, at least 256), clamped to the number of tets. `reduced` is the
+    /// global step this stage solves with (it must outlive the stage).
+    SampledLocalStage(
+        const Model& model, bool exact_projections, Index samples, ReducedGlobalStep& reduced);
+    ~SampledLocalStage() override;
+
+    void iterate(const Model& model, int iteration, const Eigen::Ref<const MatX3>& positions,
+        const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
+    bool reads_iterate() const override { return false; }
+    Index num_tets() const override { return static_cast<Index>(m_samples.size()); }
 
     const std::vector<int>& sample_tets() const { return m_samples; }
 
 private:
-    void local_global(const Model& model, int iteration, const Eigen::Ref<const MatX3>& positions,
-        const Eigen::Ref<const MatX3>& base) override;
-    bool reads_iterate() const override { return false; }
-
     ReducedGlobalStep* m_reduced;
     std::vector<int> m_samples; ///< sampled tets, ascending
     std::vector<int> m_sample_nodes; ///< their nodes, ascending

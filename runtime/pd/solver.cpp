@@ -8,6 +8,7 @@
 
 #include "common/error.hpp"
 #include "common/timer.hpp"
+#include "runtime/pd/hyper_reduced.hpp"
 
 namespace mat {
 
@@ -35,18 +36,90 @@ namespace {
 
 } // namespace
 
+SolverKind parse_solver_kind(const std::string& name)
+{
+    if (name == "semi")
+        return SolverKind::semi_reduced;
+    if (name == "full")
+        return SolverKind::full;
+    if (name == "hyper")
+        return SolverKind::hyper_reduced;
+    throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
+}
+
+PdSolver semi_reduced_solver(const Model& model, const SolverOptions& options)
+{
+    return PdSolver(model, options,
+        std::make_unique<EveryTetLocalStage>(model, options.exact_projections),
+        std::make_unique<ReducedGlobalStep>(model));
+}
+
+PdSolver full_solver(const Model& model, const SolverOptions& options)
+{
+    return PdSolver(model, options,
+        std::make_unique<EveryTetLocalStage>(model, options.exact_projections),
+        std::make_unique<FullGlobalStep>(model));
+}
+
+PdSolver hyper_reduced_solver(const Model& model, const SolverOptions& options, Index samples)
+{
+    auto global = std::make_unique<ReducedGlobalStep>(model);
+    auto local
+        = std::make_unique<SampledLocalStage>(model, options.exact_projections, samples, *global);
+    return PdSolver(model, options, std::move(local), std::move(global));
+}
+
+std::unique_ptr<PdSolver> make_solver(
+    SolverKind kind, const Model& model, const SolverOptions& options, Index hyper_samples)
+{
+    switch (kind) {
+    case SolverKind::full:
+        return std::make_unique<PdSolver>(full_solver(model, options));
+    case SolverKind::hyper_reduced:
+        return std::make_unique<PdSolver>(hyper_reduced_solver(model, options, hyper_samples));
+    case SolverKind::semi_reduced:
+        break;
+    }
+    return std::make_unique<PdSolver>(semi_reduced_solver(model, options));
+}
+
+EveryTetLocalStage::EveryTetLocalStage(const Model& model, bool exact_projections)
+    : m_local(model, exact_projections)
+    , m_rhs(model.num_nodes(), 3)
+    , m_num_tets(model.num_tets())
+{
+}
+
+void EveryTetLocalStage::iterate(const Model& model, int /*iteration*/,
+    const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base,
+    GlobalStep& global, SolverTimings& timings)
+{
+    Timer timer;
+    MAT_CHECK(base.rows() == model.num_nodes(), "solver: base has {} rows for {} nodes",
+        base.rows(), model.num_nodes());
+    if (global.takes_local_sums() && base.outerStride() == 3) {
+        // The global step reads base + the local step's sums node by node.
+        m_local.project(model, positions);
+        timings.local += timer.seconds();
+        global.solve(m_local.sums(base.data()), timings);
+        return;
+    }
+    m_local.assemble(model, positions, base, m_rhs);
+    timings.local += timer.seconds();
+    global.solve(m_rhs, timings);
+}
+
 PdSolver::PdSolver(const Model& model, const SolverOptions& options,
-    std::unique_ptr<GlobalStep> global, bool full_local_step)
+    std::unique_ptr<LocalStage> local, std::unique_ptr<GlobalStep> global)
     : m_model(&model)
     , m_options(options)
+    , m_local(std::move(local))
     , m_global(std::move(global))
-    , m_local(
-          full_local_step ? std::make_unique<LocalStep>(model, options.exact_projections) : nullptr)
     , m_pin_targets(model.pin_targets())
     , m_inertia(model.num_nodes(), 3)
-    , m_rhs(model.num_nodes(), 3)
     , m_rhs_base(model.num_nodes(), 3)
 {
+    MAT_CHECK(m_local != nullptr && m_global != nullptr, "solver: a part is missing");
     check_options(options);
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
@@ -63,25 +136,6 @@ void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
     if (!targets.allFinite())
         throw_error("solver: the pin targets are not finite");
     m_pin_targets = targets;
-}
-
-void PdSolver::local_global(const Model& model, int /*iteration*/,
-    const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base)
-{
-    MAT_CHECK(m_local != nullptr, "solver: made without the full local step");
-    Timer timer;
-    MAT_CHECK(base.rows() == model.num_nodes(), "solver: base has {} rows for {} nodes",
-        base.rows(), model.num_nodes());
-    if (m_global->takes_local_sums() && base.outerStride() == 3) {
-        // The global step reads base + the local step's sums node by node.
-        m_local->project(model, positions);
-        m_timings.local += timer.seconds();
-        m_global->solve(m_local->sums(base.data()), m_timings);
-        return;
-    }
-    m_local->assemble(model, positions, base, m_rhs);
-    m_timings.local += timer.seconds();
-    m_global->solve(m_rhs, m_timings);
 }
 
 void PdSolver::step(const Model& model, const State& in, State& out)
@@ -146,12 +200,12 @@ void PdSolver::begin_step(const State& in, State& out)
 void PdSolver::iterate(int iteration)
 {
     MAT_CHECK(m_out != nullptr, "solver: iterate() outside a step");
-    local_global(*m_model, iteration, m_out->positions, m_rhs_base);
+    m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
 }
 
 void PdSolver::finish_iteration(int iteration)
 {
-    if (reads_iterate() || iteration + 1 == m_options.iterations)
+    if (m_local->reads_iterate() || iteration + 1 == m_options.iterations)
         m_global->positions(m_out->positions, m_timings);
     ++m_timings.iterations;
 }
@@ -174,16 +228,6 @@ void PdSolver::end_step()
     if (!out.positions.allFinite())
         throw_error("projective dynamics: the positions are not finite after the step");
     ++m_timings.steps;
-}
-
-SemiReducedSolver::SemiReducedSolver(const Model& model, const SolverOptions& options)
-    : PdSolver(model, options, std::make_unique<ReducedGlobalStep>(model))
-{
-}
-
-FullSolver::FullSolver(const Model& model, const SolverOptions& options)
-    : PdSolver(model, options, std::make_unique<FullGlobalStep>(model))
-{
 }
 
 } // namespace mat

@@ -1,8 +1,14 @@
 #pragma once
 // Implicit Euler projective dynamics (Bouaziz et al. 2014; semi-reduced as in Lan et al. 2020,
-// docs/method.md, section 3). Both solvers share the full-space local step and the contact solve;
-// the global step is either the reduced k x k solve (SemiReducedSolver) or the full n x n CHOLMOD
-// solve (FullSolver, the accuracy reference and speed baseline).
+// docs/method.md, section 3). One solver built from parts: a local stage (which tets the local
+// step projects, and how their projections reach the global solve) and a global step (which
+// system it solves), with the contact stage between the global solves and the positions. The
+// three modes are compositions of those parts (make_solver):
+//   semi-reduced: every tet's local step + the reduced k x k solve (ReducedGlobalStep);
+//   full space:   every tet's local step + the full n x n CHOLMOD solve (FullGlobalStep, the
+//                 accuracy reference and speed baseline);
+//   hyper-reduced: a sample of tets, fitted to the reduced right-hand side (SampledLocalStage,
+//                 runtime/pd/hyper_reduced.hpp) + the reduced solve.
 //
 // Per step, with h = dt, M the lumped masses, g the gravity acceleration:
 //   s = x_n + h v_n + h^2 g                       (inertia target)
@@ -18,12 +24,12 @@
 // effect depends on dt), not Rayleigh damping. Implicit Euler itself dissipates energy too.
 // Pinned nodes follow the targets set with set_pin_targets() (kinematic motion), by default the
 // model's.
-// A solver holds only workspace (and, for FullSolver, the CHOLMOD factor) for the one Model it
+// A solver holds only workspace (and, full space, the CHOLMOD factor) for the one Model it
 // was made for, which must outlive it; step() allocates nothing once the workspace exists,
 // except when the set of contact candidates grows past anything seen before.
 
-#include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -35,6 +41,14 @@
 #include "runtime/state.hpp"
 
 namespace mat {
+
+/// semi: every tet's local step and the reduced global step; full: every tet's local step and the
+/// full-space global step (the reference); hyper: a sample of tets fitted to the reduced global
+/// step.
+enum class SolverKind { semi_reduced, full, hyper_reduced };
+
+/// "semi", "full" or "hyper" -> SolverKind; throws mat::Error otherwise.
+SolverKind parse_solver_kind(const std::string& name);
 
 struct SolverOptions {
     int iterations = 10; ///< local/global iterations per step, >= 1
@@ -64,9 +78,47 @@ struct StepReport {
     Vec3 contact_impulse = Vec3::Zero();
 };
 
-class PdSolver {
+/// One iteration's local half and the global solve it feeds: the local step's projections over
+/// the tets this stage projects, turned into the global step's right-hand side, and the solve.
+class LocalStage {
 public:
-    virtual ~PdSolver();
+    virtual ~LocalStage() = default;
+    /// At the iterate `positions`  n x 3, with the step's constant right-hand side `base`  n x 3
+    /// (inertia, pins, the global step's constant terms): projects, then solves with `global`,
+    /// which keeps the solution.
+    virtual void iterate(const Model& model, int iteration,
+        const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base,
+        GlobalStep& global, SolverTimings& timings)
+        = 0;
+    /// False if iterate() reads `positions` only at iteration 0 (the inertia target): the full
+    /// iterate is then reconstructed after the last iteration only.
+    virtual bool reads_iterate() const = 0;
+    /// How many tets the local step projects.
+    virtual Index num_tets() const = 0;
+};
+
+/// The local step over every tet (semi-reduced and full-space PD).
+class EveryTetLocalStage final : public LocalStage {
+public:
+    EveryTetLocalStage(const Model& model, bool exact_projections);
+    void iterate(const Model& model, int iteration, const Eigen::Ref<const MatX3>& positions,
+        const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
+    bool reads_iterate() const override { return true; }
+    Index num_tets() const override { return m_num_tets; }
+
+private:
+    LocalStep m_local;
+    MatX3 m_rhs; ///< n x 3, the assembled right-hand side when the global step needs it written
+    Index m_num_tets = 0;
+};
+
+class PdSolver final {
+public:
+    /// A solver of `model` (which must outlive it) from its parts.
+    PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<LocalStage> local,
+        std::unique_ptr<GlobalStep> global);
+    PdSolver(PdSolver&&) = default;
+    ~PdSolver();
 
     /// One time step from `in` to `out` (n x 3 each; `out` is resized if needed, and may not be
     /// `in`), with this body's ground contacts only. `model` must be the solver's model.
@@ -94,9 +146,10 @@ public:
     /// The kept reduced coordinates q  k x 3 (x = X + B q), or null for full-space PD.
     const MatX* reduced_coordinates() const { return m_global->reduced_coordinates(); }
 
+    const LocalStage& local_stage() const { return *m_local; }
+
     // For the contact stage, during a step:
-    GlobalStep& global_step() { return *m_global; }
-    const GlobalStep& global_step() const { return *m_global; }
+    ContactResponse& contact_response() { return m_global->contact_response(); }
     /// The step's inertia target s  n x 3.
     const MatX3& inertia_target() const { return m_inertia; }
     /// The step's positions  n x 3 (after the last finish_iteration, the step's result).
@@ -104,30 +157,13 @@ public:
     StepReport& report() { return m_report; }
     void add_contact_seconds(double seconds) { m_timings.contact += seconds; }
 
-protected:
-    /// `full_local_step`: make the local step over every tet that the default local_global uses.
-    PdSolver(const Model& model, const SolverOptions& options, std::unique_ptr<GlobalStep> global,
-        bool full_local_step = true);
-    SolverTimings& mutable_timings() { return m_timings; }
-
-    /// One iteration's local step and global solve (the solution stays in the global step): at the
-    /// iterate `positions`  n x 3 with the step's constant right-hand side `base`  n x 3 (inertia,
-    /// pins, the global step's constant terms). By default the local step over every tet, then
-    /// the global step's solve.
-    virtual void local_global(const Model& model, int iteration,
-        const Eigen::Ref<const MatX3>& positions, const Eigen::Ref<const MatX3>& base);
-    /// False if local_global reads `positions` only at iteration 0 (the inertia target): the
-    /// full iterate is then reconstructed after the last iteration only.
-    virtual bool reads_iterate() const { return true; }
-
 private:
     const Model* m_model;
     SolverOptions m_options;
+    std::unique_ptr<LocalStage> m_local;
     std::unique_ptr<GlobalStep> m_global;
-    std::unique_ptr<LocalStep> m_local; ///< null unless full_local_step
     MatX3 m_pin_targets; ///< #pinned x 3
     MatX3 m_inertia; ///< s  n x 3
-    MatX3 m_rhs; ///< n x 3
     MatX3 m_rhs_base; ///< n x 3, the terms of the right-hand side that stay fixed in a step
     SolverTimings m_timings;
     StepReport m_report;
@@ -138,15 +174,15 @@ private:
     std::vector<ContactBodyState> m_own_state;
 };
 
-class SemiReducedSolver final : public PdSolver {
-public:
-    explicit SemiReducedSolver(const Model& model, const SolverOptions& options = {});
-};
-
-class FullSolver final : public PdSolver {
-public:
-    /// Factors the model's full system with CHOLMOD (throws mat::Error if that fails).
-    explicit FullSolver(const Model& model, const SolverOptions& options = {});
-};
+// The three modes as compositions (see the file comment). Throw mat::Error if a part cannot be
+// built (a factorization fails, a negative sample count).
+PdSolver semi_reduced_solver(const Model& model, const SolverOptions& options = {});
+PdSolver full_solver(const Model& model, const SolverOptions& options = {});
+/// `samples`: tets in the local step, 0 = automatic (runtime/pd/hyper_reduced.hpp).
+PdSolver hyper_reduced_solver(
+    const Model& model, const SolverOptions& options = {}, Index samples = 0);
+/// One of the three by kind.
+std::unique_ptr<PdSolver> make_solver(SolverKind kind, const Model& model,
+    const SolverOptions& options = {}, Index hyper_samples = 0);
 
 } // namespace mat

@@ -5,7 +5,6 @@
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "formats/bake_io.hpp"
-#include "runtime/pd/hyper_reduced.hpp"
 #include "runtime/scene/pin_motion.hpp"
 
 namespace mat {
@@ -112,15 +111,7 @@ namespace {
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(
                 PlaneCollider { collider.point, collider.normal, collider.friction });
-        switch (solver_kind) {
-        case SolverKind::full:
-            return std::make_unique<FullSolver>(model, options);
-        case SolverKind::hyper_reduced:
-            return std::make_unique<HyperReducedSolver>(model, options, scene.solver.hyper_samples);
-        case SolverKind::semi_reduced:
-            break;
-        }
-        return std::make_unique<SemiReducedSolver>(model, options);
+        return make_solver(solver_kind, model, options, scene.solver.hyper_samples);
     }
 
     /// Initial state: placed rest positions, v + w x (x - centre of mass); pinned nodes, static

@@ -187,8 +187,8 @@ namespace {
         const Cube cube;
         SolverOptions options;
         options.planes = { PlaneCollider { Vec3(0.0, -0.05, 0.0), Vec3::UnitY(), 0.5 } };
-        SemiReducedSolver reduced(cube.model, options);
-        FullSolver full(cube.model, options);
+        PdSolver reduced = semi_reduced_solver(cube.model, options);
+        PdSolver full = full_solver(cube.model, options);
         for (PdSolver* solver :
             { static_cast<PdSolver*>(&reduced), static_cast<PdSolver*>(&full) }) {
             double deepest = 0.0;
@@ -232,10 +232,10 @@ namespace {
         const PlaneCollider ground { Vec3(0.0, -0.05, 0.0), Vec3::UnitY(), 0.5 };
         SolverOptions with_plane;
         with_plane.planes = { ground };
-        SemiReducedSolver plane_solver(cube.model, with_plane);
+        PdSolver plane_solver = semi_reduced_solver(cube.model, with_plane);
         SolverOptions hard; // the same hard contact as the plane
         hard.node_contact_compliance = 0.0;
-        SemiReducedSolver node_solver(cube.model, hard);
+        PdSolver node_solver = semi_reduced_solver(cube.model, hard);
         const std::vector<int> boundary = boundary_nodes(cube.model.tets(), cube.model.num_nodes());
         State a = State::at_rest(cube.model), b = a, next;
         ContactStage stage(1);
@@ -275,7 +275,7 @@ namespace {
         options.planes = { PlaneCollider { Vec3::Zero(), Vec3::UnitY(), mu } };
         for (const bool frictionless : { false, true }) {
             options.planes[0].friction = frictionless ? 0.0 : mu;
-            SemiReducedSolver solver(cube.model, options);
+            PdSolver solver = semi_reduced_solver(cube.model, options);
             State start = State::at_rest(cube.model);
             start.velocities.col(0).setConstant(v0);
             const int steps = 30; // 0.5 s, after the stop at 0.255 s
@@ -302,9 +302,9 @@ namespace {
         for (const bool reduced_solver : { true, false }) {
             std::unique_ptr<PdSolver> solver;
             if (reduced_solver)
-                solver = std::make_unique<SemiReducedSolver>(cube.model, options);
+                solver = make_solver(SolverKind::semi_reduced, cube.model, options);
             else
-                solver = std::make_unique<FullSolver>(cube.model, options);
+                solver = make_solver(SolverKind::full, cube.model, options);
             State start = State::at_rest(cube.model);
             start.velocities.col(1).setConstant(2.0);
             const State end = run(*solver, cube.model, start, 6, nullptr);

@@ -52,9 +52,9 @@ namespace {
                         options.pinned_nodes.push_back(static_cast<int>(i));
             }
             const Model model(bake, Material {}, options);
-            SemiReducedSolver semi(model);
-            HyperReducedSolver hyper(model, {}, model.num_tets());
-            ASSERT_EQ(static_cast<Index>(hyper.sample_tets().size()), model.num_tets());
+            PdSolver semi = semi_reduced_solver(model);
+            PdSolver hyper = hyper_reduced_solver(model, {}, model.num_tets());
+            ASSERT_EQ(static_cast<Index>(hyper.local_stage().num_tets()), model.num_tets());
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
             const State a = run(semi, model, start, 10);
@@ -75,8 +75,8 @@ namespace {
         const Model model(bake, Material {}, model_options());
         State start = State::at_rest(model);
         start.velocities = twist_velocities(start.positions);
-        SemiReducedSolver semi(model);
-        FullSolver full(model);
+        PdSolver semi = semi_reduced_solver(model);
+        PdSolver full = full_solver(model);
         const State semi_end = run(semi, model, start, 10);
         const State full_end = run(full, model, start, 10);
         const double reduction
@@ -87,12 +87,13 @@ namespace {
                 model.num_columns(), reduction);
         for (const Index samples :
             { 2 * model.num_columns(), 8 * model.num_columns(), model.num_tets() / 2 }) {
-            HyperReducedSolver hyper(model, {}, samples);
+            PdSolver hyper = hyper_reduced_solver(model, {}, samples);
             const State end = run(hyper, model, start, 10);
             ASSERT_TRUE(end.positions.allFinite());
             errors.push_back(
                 relative_difference(end.positions, semi_end.positions, start.positions));
-            trace += fmt::format(" {} samples {:.3g}", hyper.sample_tets().size(), errors.back());
+            trace
+                += fmt::format(" {} samples {:.3g}", hyper.local_stage().num_tets(), errors.back());
         }
         RecordProperty("errors", trace);
         // More samples, closer to semi-reduced; 8k samples add less than the reduction's own
@@ -108,7 +109,7 @@ namespace {
         const Model model(bake, Material {}, model_options());
         SolverOptions options;
         options.gravity.setZero();
-        HyperReducedSolver hyper(model, options);
+        PdSolver hyper = hyper_reduced_solver(model, options);
         const State rest = State::at_rest(model);
         const State end = run(hyper, model, rest, 5);
         EXPECT_LT((end.positions - rest.positions).cwiseAbs().maxCoeff(), 1e-10);
@@ -124,7 +125,7 @@ namespace {
         std::vector<State> ends;
         for (const int threads : { 1, 2 }) {
             set_threads(threads);
-            HyperReducedSolver hyper(model);
+            PdSolver hyper = hyper_reduced_solver(model);
             ends.push_back(run(hyper, model, start, 5));
         }
         set_threads(0);
@@ -185,7 +186,7 @@ namespace {
         EXPECT_EQ(octants.size(), 8u);
         EXPECT_EQ(static_cast<Index>(farthest_point_tets(model, 10 * t).size()), t);
         EXPECT_EQ(farthest_point_tets(model, 0).size(), 1u);
-        EXPECT_THROW(HyperReducedSolver(model, {}, -1), Error);
+        EXPECT_THROW(hyper_reduced_solver(model, {}, -1), Error);
     }
 
 } // namespace

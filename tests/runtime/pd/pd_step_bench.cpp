@@ -137,8 +137,8 @@ int main(int argc, char** argv)
         "solve", "reconstr", "local ns/tet");
     for (const int threads : { 1, 2 }) {
         set_threads(threads);
-        SemiReducedSolver reduced(model);
-        FullSolver full(model);
+        PdSolver reduced = semi_reduced_solver(model);
+        PdSolver full = full_solver(model);
         const StepFigures r = measure(reduced, model, start, steps);
         const StepFigures f = measure(full, model, start, steps);
         for (const auto& [name, fig] : { std::pair { "reduced", r }, std::pair { "full", f } })

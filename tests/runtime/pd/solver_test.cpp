@@ -45,8 +45,8 @@ namespace {
         const Model model(bake, Material {}, model_options());
         SolverOptions options;
         options.gravity.setZero();
-        SemiReducedSolver reduced(model, options);
-        FullSolver full(model, options);
+        PdSolver reduced = semi_reduced_solver(model, options);
+        PdSolver full = full_solver(model, options);
         const State rest = State::at_rest(model);
         for (const State& end :
             { run_steps(reduced, model, rest, 5), run_steps(full, model, rest, 5) }) {
@@ -61,8 +61,8 @@ namespace {
         const Model model(bake, Material {}, model_options());
         SolverOptions options;
         options.gravity = Vec3(0.5, -9.81, 0.2);
-        SemiReducedSolver reduced(model, options);
-        FullSolver full(model, options);
+        PdSolver reduced = semi_reduced_solver(model, options);
+        PdSolver full = full_solver(model, options);
         const Eigen::RowVector3d v0(0.3, 1.0, -0.2);
         State start = State::at_rest(model);
         start.velocities.rowwise() = v0;
@@ -106,8 +106,8 @@ namespace {
         Material soft;
         soft.youngs_modulus = 2e4;
         const Model model(bake, soft, options);
-        SemiReducedSolver reduced(model);
-        FullSolver full(model);
+        PdSolver reduced = semi_reduced_solver(model);
+        PdSolver full = full_solver(model);
         const State rest = State::at_rest(model);
         for (const State& end :
             { run_steps(reduced, model, rest, 20), run_steps(full, model, rest, 20) }) {
@@ -136,9 +136,9 @@ namespace {
         for (const bool reduced_solver : { true, false }) {
             std::unique_ptr<PdSolver> solver;
             if (reduced_solver)
-                solver = std::make_unique<SemiReducedSolver>(model, no_gravity);
+                solver = make_solver(SolverKind::semi_reduced, model, no_gravity);
             else
-                solver = std::make_unique<FullSolver>(model, no_gravity);
+                solver = make_solver(SolverKind::full, model, no_gravity);
             State state = State::at_rest(model), next;
             MatX3 targets = model.pin_targets();
             for (int s = 1; s <= 30; ++s) {
@@ -174,8 +174,8 @@ namespace {
                 options.pin_weight_scale = 1e4;
             }
             const Model model(bake, Material {}, options);
-            SemiReducedSolver reduced(model);
-            FullSolver full(model);
+            PdSolver reduced = semi_reduced_solver(model);
+            PdSolver full = full_solver(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
             const State a = run_steps(reduced, model, start, 10);
@@ -206,8 +206,8 @@ namespace {
                 = write_text(fmt::format("axis{}.ma", spheres), axis_medial_mesh(spheres));
             const BakeData bake = test::bake_cube(medial);
             const Model model(bake, Material {}, model_options());
-            SemiReducedSolver reduced(model);
-            FullSolver full(model);
+            PdSolver reduced = semi_reduced_solver(model);
+            PdSolver full = full_solver(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
             const State a = run_steps(reduced, model, start, 10);
@@ -233,8 +233,9 @@ namespace {
         SolverOptions exact, fast;
         exact.exact_projections = true;
         fast.exact_projections = false;
-        SemiReducedSolver a(model, exact), b(model, fast);
-        FullSolver reference(model, exact);
+        PdSolver a = semi_reduced_solver(model, exact);
+        PdSolver b = semi_reduced_solver(model, fast);
+        PdSolver reference = full_solver(model, exact);
         const State end_exact = run_steps(a, model, start, 10);
         const State end_fast = run_steps(b, model, start, 10);
         const State end_full = run_steps(reference, model, start, 10);
@@ -258,8 +259,8 @@ namespace {
         std::vector<State> reduced_ends, full_ends;
         for (const int threads : { 1, 2 }) {
             set_threads(threads);
-            SemiReducedSolver reduced(model);
-            FullSolver full(model);
+            PdSolver reduced = semi_reduced_solver(model);
+            PdSolver full = full_solver(model);
             reduced_ends.push_back(run_steps(reduced, model, start, 5));
             full_ends.push_back(run_steps(full, model, start, 5));
         }
@@ -281,7 +282,7 @@ namespace {
         options.pinned_nodes = { static_cast<int>(bake.tet_mesh.num_vertices()) };
         EXPECT_THROW(Model(bake, Material {}, options), Error);
         const Model model(bake, Material {}, model_options());
-        SemiReducedSolver reduced(model);
+        PdSolver reduced = semi_reduced_solver(model);
         State rest = State::at_rest(model), out;
         const Model other(bake, Material {}, model_options());
         EXPECT_THROW(reduced.step(other, rest, out), Error); // not the solver's model

@@ -1,0 +1,46 @@
+#pragma once
+// What the contact stage (runtime/pd/contact_stage.hpp) needs of a body's solver, and nothing
+// more: the seam where any global step (reduced, full; a GPU one) plugs into the contact solve.
+
+#include <vector>
+
+#include "common/eigen_types.hpp"
+
+namespace mat {
+
+/// The compliance D of the contact stage (runtime/pd/contact_stage.hpp): how a force added to a
+/// global step's right-hand side moves its kept solution. A force f at node j moves the solution
+/// by its response z_j f^T (z_j = S^-1 b_j^T reduced, A^-1 e_j full, a vector of
+/// response_size()), and node i by D_ij f with D_ij = apply(i, z_j). The contact stage sees a
+/// body's solver only through this interface; each global step implements it for its solution.
+class ContactResponse {
+public:
+    virtual ~ContactResponse() = default;
+
+    /// Length of a response vector (k reduced, n full).
+    virtual Index response_size() const = 0;
+    /// Makes the responses of `nodes` available (cached across calls while the nodes stay in
+    /// the list; nodes dropped from the list are forgotten).
+    virtual void prepare_nodes(const std::vector<int>& nodes) = 0;
+    /// z_j of a prepared node.
+    virtual Eigen::Ref<const VecX> node_response(int node) const = 0;
+    /// How far node i moves along a response: the row of node i applied to `response`.
+    virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
+    /// Adds `response` f^T to the kept solution (the displacement of a force f).
+    virtual void add_response(
+        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
+        = 0;
+    /// A point carried by nodes, x = sum_t weights_t x_{nodes_t}, as a sparse row over the
+    /// response space: x = offset + sum_i value_i u_i (u the kept solution's rows: q reduced, x
+    /// full), and D applied to a response z is sum_i value_i z_i. Appends (index, value) pairs
+    /// in the order of the nodes' rows; `slots` (response_size(), all -1) is scratch, returned
+    /// all -1.
+    virtual void direction(const int* nodes, const double* weights, int count,
+        std::vector<int>& index, std::vector<double>& value, Vec3& offset,
+        std::vector<int>& slots) const = 0;
+    /// The point of a direction in the kept solution.
+    virtual Vec3 position(
+        const int* index, const double* value, int count, const Vec3& offset) const = 0;
+};
+
+} // namespace mat
