@@ -31,6 +31,37 @@ namespace {
         return 0;
     }
 
+    /// Throws unless the medial mesh's spheres are finite, with one handle per sphere and one
+    /// basis row per sphere, the handles' columns spanning the basis's.
+    void check_spheres_and_handles(const MedialMesh& medial, const SparseRowMatrix& medial_basis,
+        const Eigen::Ref<const MatX3>& handle_centers, const Eigen::Ref<const VecX>& handle_scales,
+        const Eigen::Ref<const VecXi>& handle_column_offsets)
+    {
+        const Index num_spheres = medial.num_spheres();
+        if (num_spheres == 0)
+            throw_error("medial bounds: the medial mesh has no sphere");
+        if (medial.radii.size() != num_spheres)
+            throw_error("medial bounds: {} radii for {} spheres", medial.radii.size(), num_spheres);
+        for (Index s = 0; s < num_spheres; ++s)
+            if (!medial.centers.row(s).allFinite() || !(medial.radii(s) >= 0.0)
+                || !std::isfinite(medial.radii(s)))
+                throw_error("medial bounds: sphere {} has a non-finite center or a bad radius {}",
+                    s, medial.radii(s));
+        if (handle_centers.rows() != num_spheres || handle_scales.size() != num_spheres
+            || handle_column_offsets.size() != num_spheres + 1)
+            throw_error("medial bounds: {} handle centers, {} scales and {} column offsets for {} "
+                        "spheres (expected one handle per sphere)",
+                handle_centers.rows(), handle_scales.size(), handle_column_offsets.size(),
+                num_spheres);
+        if (medial_basis.rows() != num_spheres)
+            throw_error("medial bounds: the medial basis has {} rows for {} spheres",
+                medial_basis.rows(), num_spheres);
+        const Index num_columns = medial_basis.cols();
+        if (handle_column_offsets(0) != 0 || handle_column_offsets(num_spheres) != num_columns)
+            throw_error("medial bounds: handle columns span [{}, {}), expected [0, {})",
+                handle_column_offsets(0), handle_column_offsets(num_spheres), num_columns);
+    }
+
 } // namespace
 
 MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& collision,
@@ -38,31 +69,21 @@ MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& 
     const Eigen::Ref<const VecX>& handle_scales,
     const Eigen::Ref<const VecXi>& handle_column_offsets)
 {
-    const Index num_spheres = medial.num_spheres();
-    const Index num_primitives = collision.primitive_kind.size();
-    const Index num_vertices = collision.vertex_primitive.size();
-    if (num_spheres == 0)
-        throw_error("medial bounds: the medial mesh has no sphere");
-    if (medial.radii.size() != num_spheres)
-        throw_error("medial bounds: {} radii for {} spheres", medial.radii.size(), num_spheres);
-    for (Index s = 0; s < num_spheres; ++s)
-        if (!medial.centers.row(s).allFinite() || !(medial.radii(s) >= 0.0)
-            || !std::isfinite(medial.radii(s)))
-            throw_error("medial bounds: sphere {} has a non-finite center or a bad radius {}", s,
-                medial.radii(s));
-    if (handle_centers.rows() != num_spheres || handle_scales.size() != num_spheres
-        || handle_column_offsets.size() != num_spheres + 1)
-        throw_error("medial bounds: {} handle centers, {} scales and {} column offsets for {} "
-                    "spheres (expected one handle per sphere)",
-            handle_centers.rows(), handle_scales.size(), handle_column_offsets.size(), num_spheres);
-    if (medial_basis.rows() != num_spheres)
-        throw_error("medial bounds: the medial basis has {} rows for {} spheres",
-            medial_basis.rows(), num_spheres);
+    check_spheres_and_handles(
+        medial, medial_basis, handle_centers, handle_scales, handle_column_offsets);
     m_num_columns = medial_basis.cols();
-    if (handle_column_offsets(0) != 0 || handle_column_offsets(num_spheres) != m_num_columns)
-        throw_error("medial bounds: handle columns span [{}, {}), expected [0, {})",
-            handle_column_offsets(0), handle_column_offsets(num_spheres), m_num_columns);
+    copy_spheres(medial, medial_basis, handle_centers, handle_scales, handle_column_offsets);
+    copy_primitives(collision);
+    copy_bound_entries(collision, handle_centers, handle_scales, handle_column_offsets);
+    file_surface_vertices(collision);
+    reset_outputs();
+}
 
+void MedialBounds::copy_spheres(const MedialMesh& medial, const SparseRowMatrix& medial_basis,
+    const Eigen::Ref<const MatX3>& handle_centers, const Eigen::Ref<const VecX>& handle_scales,
+    const Eigen::Ref<const VecXi>& handle_column_offsets)
+{
+    const Index num_spheres = medial.num_spheres();
     m_rest_centers = medial.centers;
     m_rest_radii = medial.radii;
     const Box3 rest_box(medial.centers.colwise().minCoeff().transpose(),
@@ -87,8 +108,12 @@ MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& 
     }
     m_medial_basis = medial_basis;
     m_medial_basis.makeCompressed();
+}
 
-    // Primitives.
+void MedialBounds::copy_primitives(const MedialCollisionData& collision)
+{
+    const Index num_spheres = this->num_spheres();
+    const Index num_primitives = collision.primitive_kind.size();
     if (collision.primitive_spheres.rows() != num_primitives
         || collision.bound_indptr.size() != num_primitives + 1
         || collision.bound_handles.size() != collision.bound_factors.size())
@@ -113,8 +138,14 @@ MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& 
         }
         m_counts(p) = count;
     }
+}
 
-    // Bound entries.
+void MedialBounds::copy_bound_entries(const MedialCollisionData& collision,
+    const Eigen::Ref<const MatX3>& handle_centers, const Eigen::Ref<const VecX>& handle_scales,
+    const Eigen::Ref<const VecXi>& handle_column_offsets)
+{
+    const Index num_spheres = this->num_spheres();
+    const Index num_primitives = this->num_primitives();
     m_entry_begin = collision.bound_indptr;
     if (m_entry_begin(0) != 0 || m_entry_begin(num_primitives) != collision.bound_handles.size())
         throw_error("medial bounds: the bound offsets span [{}, {}) for {} entries",
@@ -142,8 +173,12 @@ MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& 
             entry.terms = handle_column_offsets(j + 1) - handle_column_offsets(j);
         }
     }
+}
 
-    // Surface vertices per primitive (CSR, vertices in increasing order).
+void MedialBounds::file_surface_vertices(const MedialCollisionData& collision)
+{
+    const Index num_primitives = this->num_primitives();
+    const Index num_vertices = collision.vertex_primitive.size();
     if (collision.vertex_parameter.rows() != num_vertices)
         throw_error("medial bounds: {} vertex parameters for {} vertices",
             collision.vertex_parameter.rows(), num_vertices);
@@ -168,7 +203,12 @@ MedialBounds::MedialBounds(const MedialMesh& medial, const MedialCollisionData& 
         m_vertices(at) = static_cast<int>(v);
         m_vertex_parameter.row(at) = collision.vertex_parameter.row(v);
     }
+}
 
+void MedialBounds::reset_outputs()
+{
+    const Index num_spheres = this->num_spheres();
+    const Index num_primitives = this->num_primitives();
     m_handle_rotations.assign(static_cast<size_t>(num_spheres), Mat3::Identity());
     m_handle_transforms.assign(static_cast<size_t>(num_spheres), Mat3::Identity());
     m_entry_offsets.assign(m_entries.size(), Vec3::Zero());

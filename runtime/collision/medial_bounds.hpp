@@ -114,6 +114,20 @@ private:
         int terms = 0; ///< 4 or 10
     };
 
+    /// The rest spheres, each sphere's handle (checked) and the medial basis; m_length.
+    void copy_spheres(const MedialMesh& medial, const SparseRowMatrix& medial_basis,
+        const Eigen::Ref<const MatX3>& handle_centers, const Eigen::Ref<const VecX>& handle_scales,
+        const Eigen::Ref<const VecXi>& handle_column_offsets);
+    /// The primitives' sphere counts and indices (checked against the spheres).
+    void copy_primitives(const MedialCollisionData& collision);
+    /// The bound entries (checked), each with its handle's data copied in.
+    void copy_bound_entries(const MedialCollisionData& collision,
+        const Eigen::Ref<const MatX3>& handle_centers, const Eigen::Ref<const VecX>& handle_scales,
+        const Eigen::Ref<const VecXi>& handle_column_offsets);
+    /// The surface vertices per primitive (CSR, checked), with their sphere weights.
+    void file_surface_vertices(const MedialCollisionData& collision);
+    /// Sizes the scratch and the output, and writes the rest primitives.
+    void reset_outputs();
     void deform_spheres(const Eigen::Ref<const MatX3>& q, bool rotations);
     Mat3 primitive_rotation(Index p) const;
     double bound_increment(Index p, const Eigen::Ref<const MatX3>& q, bool remove_rigid);

@@ -112,145 +112,180 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         data.self_pairs.clear();
     }
     // Each primitive's region: the union of its pairs' regions, grown.
-    const auto extend = [&](int body, int primitive, const Box3& region) {
-        BodyData& data = m_bodies[static_cast<std::size_t>(body)];
-        const std::size_t p = static_cast<std::size_t>(primitive);
-        if (data.stamp[p] != m_run) {
-            data.stamp[p] = m_run;
-            data.region[p] = region;
-            data.active.push_back(primitive);
-        } else {
-            data.region[p].extend(region);
-        }
-    };
-    for (const PrimitivePairRef& pair : pairs) {
-        // Grown by the margin and by how far the two bodies' nodes may move in the step.
-        const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
-            + bodies[static_cast<std::size_t>(pair.body_b)].motion;
-        const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
-        if (region.isEmpty())
-            continue;
-        extend(pair.body_a, pair.primitive_a, region);
-        extend(pair.body_b, pair.primitive_b, region);
-        m_bodies[static_cast<std::size_t>(pair.body_a)].partners.push_back(pair.body_b);
-        m_bodies[static_cast<std::size_t>(pair.body_b)].partners.push_back(pair.body_a);
-        if (pair.body_a == pair.body_b)
-            m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
-                pair_key(pair.primitive_a, pair.primitive_b));
-    }
+    for (const PrimitivePairRef& pair : pairs)
+        add_pair(bodies, pair, margin);
     // The active triangles and nodes: those of an active primitive inside its region (a
     // triangle enclosed by several primitives is taken once). In parallel over the bodies.
-    const auto for_each_body = [&](const auto& work) {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_bodies.size(), 1),
-            [&](const tbb::blocked_range<std::size_t>& range) {
-                for (std::size_t b = range.begin(); b != range.end(); ++b)
-                    work(bodies[b], m_bodies[b]);
-            });
-    };
-    for_each_body([&](const NarrowPhaseBody& body, BodyData& data) {
-        data.box = Box3();
-        for (const int p : data.active) {
-            const Box3& region = data.region[static_cast<std::size_t>(p)];
-            for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
-                const int f = (*body.face_list)(j);
-                int& stamp = data.face_stamp[static_cast<std::size_t>(f)];
-                if (stamp == m_run)
-                    continue;
-                const Box3 box = face_box(body, f);
-                if (boxes_overlap(box, region)) {
-                    stamp = m_run;
-                    data.faces.push_back({ box, f });
-                    data.box.extend(box);
-                }
-            }
-            if (body.is_static)
-                continue;
-            for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j) {
-                const int node = (*body.node_list)(j);
-                const Vec3 x = body.nodes->row(node).transpose();
-                if (region.contains(x))
-                    data.nodes.push_back({ Box3(x, x), node });
-            }
-        }
-    });
+    for_each_body(
+        bodies, [&](const NarrowPhaseBody& body, BodyData& data) { collect_active(body, data); });
     // The sweep axis: the longest side of the active triangles' box. Across it, a grid of
     // columns (cells at least as wide as the widest triangle, so that a triangle is filed in the
     // column of its low corner and looked up in the neighbouring ones); within a column, the
     // triangles are sorted along the sweep axis.
+    choose_sweep_axis();
+    const int axis = m_axis;
+    for_each_body(bodies, [&](const NarrowPhaseBody&, BodyData& data) {
+        size_columns(data, axis);
+        sort_into_columns(data, axis);
+        store_face_boxes(data);
+        sort_unique(data.partners);
+        sort_unique(data.self_pairs);
+    });
+}
+
+template <class Work>
+void NarrowPhase::for_each_body(const std::vector<NarrowPhaseBody>& bodies, const Work& work)
+{
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_bodies.size(), 1),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            for (std::size_t b = range.begin(); b != range.end(); ++b)
+                work(bodies[b], m_bodies[b]);
+        });
+}
+
+void NarrowPhase::add_pair(
+    const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin)
+{
+    // Grown by the margin and by how far the two bodies' nodes may move in the step.
+    const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
+        + bodies[static_cast<std::size_t>(pair.body_b)].motion;
+    const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
+    if (region.isEmpty())
+        return;
+    extend_region(pair.body_a, pair.primitive_a, region);
+    extend_region(pair.body_b, pair.primitive_b, region);
+    m_bodies[static_cast<std::size_t>(pair.body_a)].partners.push_back(pair.body_b);
+    m_bodies[static_cast<std::size_t>(pair.body_b)].partners.push_back(pair.body_a);
+    if (pair.body_a == pair.body_b)
+        m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
+            pair_key(pair.primitive_a, pair.primitive_b));
+}
+
+void NarrowPhase::extend_region(int body, int primitive, const Box3& region)
+{
+    BodyData& data = m_bodies[static_cast<std::size_t>(body)];
+    const std::size_t p = static_cast<std::size_t>(primitive);
+    if (data.stamp[p] != m_run) {
+        data.stamp[p] = m_run;
+        data.region[p] = region;
+        data.active.push_back(primitive);
+    } else {
+        data.region[p].extend(region);
+    }
+}
+
+void NarrowPhase::collect_active(const NarrowPhaseBody& body, BodyData& data) const
+{
+    data.box = Box3();
+    for (const int p : data.active) {
+        const Box3& region = data.region[static_cast<std::size_t>(p)];
+        for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
+            const int f = (*body.face_list)(j);
+            int& stamp = data.face_stamp[static_cast<std::size_t>(f)];
+            if (stamp == m_run)
+                continue;
+            const Box3 box = face_box(body, f);
+            if (boxes_overlap(box, region)) {
+                stamp = m_run;
+                data.faces.push_back({ box, f });
+                data.box.extend(box);
+            }
+        }
+        if (body.is_static)
+            continue;
+        for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j) {
+            const int node = (*body.node_list)(j);
+            const Vec3 x = body.nodes->row(node).transpose();
+            if (region.contains(x))
+                data.nodes.push_back({ Box3(x, x), node });
+        }
+    }
+}
+
+void NarrowPhase::choose_sweep_axis()
+{
     Box3 all;
     for (const BodyData& data : m_bodies)
         all.extend(data.box);
     m_axis = 0;
     if (!all.isEmpty())
         all.sizes().maxCoeff(&m_axis);
-    const int axis = m_axis;
+}
+
+void NarrowPhase::size_columns(BodyData& data, int axis)
+{
     const int u = (axis + 1) % 3;
     const int v = (axis + 2) % 3;
-    for_each_body([&](const NarrowPhaseBody&, BodyData& data) {
-        const Box3& box = data.box;
-        Vec3 width = Vec3::Zero();
-        for (const Item& item : data.faces)
-            width = width.cwiseMax(item.box.sizes());
-        data.face_width = width(axis);
-        data.width_u = width(u);
-        data.width_v = width(v);
-        data.origin_u = box.isEmpty() ? 0.0 : box.min()(u);
-        data.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
-        const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
-        const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
-        // Columns: no narrower than the widest triangle, at most max_columns per side.
-        constexpr int max_columns = 64;
-        data.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
-        data.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
-        const auto count = [](double size, double cell) {
-            const double n = size / cell; // NaN with non-finite positions: 1 column
-            if (!(n >= 0.0))
-                return 1;
-            return n < max_columns ? static_cast<int>(n) + 1 : max_columns;
-        };
-        data.columns_u = count(size_u, data.cell_u);
-        data.columns_v = count(size_v, data.cell_v);
-        // Counting sort by column, then each column along the sweep axis.
-        const int columns = data.columns_u * data.columns_v;
-        data.column_start.assign(static_cast<std::size_t>(columns + 1), 0);
-        for (Item& item : data.faces) {
-            item.column = data.column(item.box.min()(u), item.box.min()(v));
-            ++data.column_start[static_cast<std::size_t>(item.column + 1)];
-        }
-        for (int c = 0; c < columns; ++c)
-            data.column_start[static_cast<std::size_t>(c + 1)]
-                += data.column_start[static_cast<std::size_t>(c)];
-        data.fill.assign(data.column_start.begin(), data.column_start.end() - 1);
-        data.sorted.resize(data.faces.size());
-        for (const Item& item : data.faces)
-            data.sorted[static_cast<std::size_t>(
-                data.fill[static_cast<std::size_t>(item.column)]++)]
-                = item;
-        std::swap(data.faces, data.sorted);
-        for (int c = 0; c < columns; ++c)
-            std::sort(data.faces.begin() + data.column_start[static_cast<std::size_t>(c)],
-                data.faces.begin() + data.column_start[static_cast<std::size_t>(c + 1)],
-                [axis](const Item& x, const Item& y) {
-                    return x.box.min()[axis] < y.box.min()[axis]
-                        || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
-                });
-        const std::size_t active = data.faces.size();
+    const Box3& box = data.box;
+    Vec3 width = Vec3::Zero();
+    for (const Item& item : data.faces)
+        width = width.cwiseMax(item.box.sizes());
+    data.face_width = width(axis);
+    data.width_u = width(u);
+    data.width_v = width(v);
+    data.origin_u = box.isEmpty() ? 0.0 : box.min()(u);
+    data.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
+    const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
+    const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
+    // Columns: no narrower than the widest triangle, at most max_columns per side.
+    constexpr int max_columns = 64;
+    data.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
+    data.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
+    const auto count = [](double size, double cell) {
+        const double n = size / cell; // NaN with non-finite positions: 1 column
+        if (!(n >= 0.0))
+            return 1;
+        return n < max_columns ? static_cast<int>(n) + 1 : max_columns;
+    };
+    data.columns_u = count(size_u, data.cell_u);
+    data.columns_v = count(size_v, data.cell_v);
+}
+
+void NarrowPhase::sort_into_columns(BodyData& data, int axis)
+{
+    const int u = (axis + 1) % 3;
+    const int v = (axis + 2) % 3;
+    // Counting sort by column, then each column along the sweep axis.
+    const int columns = data.columns_u * data.columns_v;
+    data.column_start.assign(static_cast<std::size_t>(columns + 1), 0);
+    for (Item& item : data.faces) {
+        item.column = data.column(item.box.min()(u), item.box.min()(v));
+        ++data.column_start[static_cast<std::size_t>(item.column + 1)];
+    }
+    for (int c = 0; c < columns; ++c)
+        data.column_start[static_cast<std::size_t>(c + 1)]
+            += data.column_start[static_cast<std::size_t>(c)];
+    data.fill.assign(data.column_start.begin(), data.column_start.end() - 1);
+    data.sorted.resize(data.faces.size());
+    for (const Item& item : data.faces)
+        data.sorted[static_cast<std::size_t>(data.fill[static_cast<std::size_t>(item.column)]++)]
+            = item;
+    std::swap(data.faces, data.sorted);
+    for (int c = 0; c < columns; ++c)
+        std::sort(data.faces.begin() + data.column_start[static_cast<std::size_t>(c)],
+            data.faces.begin() + data.column_start[static_cast<std::size_t>(c + 1)],
+            [axis](const Item& x, const Item& y) {
+                return x.box.min()[axis] < y.box.min()[axis]
+                    || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
+            });
+}
+
+void NarrowPhase::store_face_boxes(BodyData& data)
+{
+    const std::size_t active = data.faces.size();
+    for (int a = 0; a < 3; ++a) {
+        data.lo[static_cast<std::size_t>(a)].resize(active);
+        data.hi[static_cast<std::size_t>(a)].resize(active);
+    }
+    data.index.resize(active);
+    for (std::size_t k = 0; k < active; ++k) {
+        const Item& item = data.faces[k];
         for (int a = 0; a < 3; ++a) {
-            data.lo[static_cast<std::size_t>(a)].resize(active);
-            data.hi[static_cast<std::size_t>(a)].resize(active);
+            data.lo[static_cast<std::size_t>(a)][k] = item.box.min()[a];
+            data.hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
         }
-        data.index.resize(active);
-        for (std::size_t k = 0; k < active; ++k) {
-            const Item& item = data.faces[k];
-            for (int a = 0; a < 3; ++a) {
-                data.lo[static_cast<std::size_t>(a)][k] = item.box.min()[a];
-                data.hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
-            }
-            data.index[k] = item.index;
-        }
-        sort_unique(data.partners);
-        sort_unique(data.self_pairs);
-    });
+        data.index[k] = item.index;
+    }
 }
 
 bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const
@@ -279,6 +314,125 @@ namespace {
     {
         return body.velocities != nullptr ? Vec3(body.velocities->row(node).transpose())
                                           : Vec3::Zero();
+    }
+
+    /// Whether triangles fa of a and fb of b share a corner (vertex index).
+    bool share_corner(const NarrowPhaseBody& a, int fa, const NarrowPhaseBody& b, int fb)
+    {
+        bool shared = false;
+        for (int u = 0; u < 3; ++u)
+            for (int v = 0; v < 3; ++v)
+                shared |= (*a.faces)(fa, u) == (*b.faces)(fb, v);
+        return shared;
+    }
+
+    /// One node's search among the triangles of one partner body.
+    struct NodeQuery {
+        Vec3 x = Vec3::Zero(); ///< the node's position
+        Vec3 velocity = Vec3::Zero(); ///< the node's velocity
+        double margin = 0.0;
+        double lookahead = 0.0;
+        double near = 0.0; ///< the margin, plus the extra against a body that does not fall
+        double reach = 0.0; ///< near, plus the node's and the other body's motion in the step
+        bool same_body = false; ///< the triangles are of the node's own body
+    };
+
+    /// A triangle that takes the node: its closest point, signed distance and unit normal.
+    struct FaceHit {
+        PointTriangleClosest closest;
+        double distance = 0.0; ///< signed: negative behind the triangle
+        Vec3 normal = Vec3::UnitY();
+    };
+
+    /// Whether the node is in front of the (non-degenerate) triangle's plane by the reach or
+    /// more, or by more than it can close at its fastest approach to a corner.
+    bool plane_out_of_reach(
+        const NodeQuery& q, const NarrowPhaseBody& other, int f, const Vec3& p0, const Vec3& unit)
+    {
+        const double plane = unit.dot(q.x - p0);
+        if (plane >= q.reach)
+            return true;
+        if (plane >= q.near) {
+            double approach = 0.0;
+            for (int c = 0; c < 3; ++c)
+                approach = std::max(
+                    approach, -unit.dot(q.velocity - node_velocity(other, (*other.faces)(f, c))));
+            if (plane >= q.near + q.lookahead * approach)
+                return true;
+        }
+        return false;
+    }
+
+    /// Whether a node behind the triangle (p0, p1, p2), `distance` from it, is too far: outside
+    /// the triangle's box grown by the margin (or, within one body, not within the margin).
+    bool behind_out_of_reach(
+        const NodeQuery& q, const Vec3& p0, const Vec3& p1, const Vec3& p2, double distance)
+    {
+        // Within one body, only within the margin: a vertex behind a face of another part of
+        // its own body may just be on the far side of it.
+        if (q.same_body && distance >= q.margin)
+            return true;
+        const Vec3 lo = p0.cwiseMin(p1).cwiseMin(p2).array() - q.margin;
+        const Vec3 hi = p0.cwiseMax(p1).cwiseMax(p2).array() + q.margin;
+        return (q.x.array() < lo.array()).any() || (q.x.array() > hi.array()).any();
+    }
+
+    /// Whether a node in front of triangle f at `signed_distance` (beyond the margin) is further
+    /// than it closes in the step at its approach speed to the closest point.
+    bool approach_out_of_reach(const NodeQuery& q, const NarrowPhaseBody& other, int f,
+        const PointTriangleClosest& closest, const Vec3& unit, double signed_distance)
+    {
+        Vec3 v_point = Vec3::Zero();
+        for (int c = 0; c < 3; ++c)
+            v_point += closest.barycentric(c) * node_velocity(other, (*other.faces)(f, c));
+        const double approach = std::max(0.0, -unit.dot(q.velocity - v_point));
+        return signed_distance >= q.near + q.lookahead * approach;
+    }
+
+    /// Node `q` against triangle f of `other`: true, with `hit`, if the triangle takes it.
+    bool node_face_hit(const NodeQuery& q, const NarrowPhaseBody& other, int f, FaceHit& hit)
+    {
+        const Vec3 p0 = corner(other, f, 0);
+        const Vec3 p1 = corner(other, f, 1);
+        const Vec3 p2 = corner(other, f, 2);
+        const Vec3 n = (p1 - p0).cross(p2 - p0);
+        const double length = n.norm();
+        const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+        // In front of the triangle's plane by the reach or more, or by more than the node can
+        // close at its fastest approach to a corner (the closest point's velocity lies between
+        // the corners'): so is its closest point (which is at least as far), and the node is no
+        // candidate.
+        if (length > 0.0 && plane_out_of_reach(q, other, f, p0, unit))
+            return false;
+        const PointTriangleClosest closest = point_triangle_closest(q.x, p0, p1, p2);
+        const double distance = std::sqrt(closest.squared_distance);
+        const double signed_distance = unit.dot(q.x - closest.point) < 0.0 ? -distance : distance;
+        // Behind: in the triangle's box grown by the margin only (a wider search would take in
+        // nodes on the far side of a part thinner than the reach). In front: within the margin,
+        // plus what the node may close in the step at its approach speed.
+        if (signed_distance < 0.0) {
+            if (behind_out_of_reach(q, p0, p1, p2, distance))
+                return false;
+        } else if (signed_distance >= q.reach) {
+            return false;
+        }
+        if (signed_distance >= q.near
+            && approach_out_of_reach(q, other, f, closest, unit, signed_distance))
+            return false;
+        hit.closest = closest;
+        hit.distance = signed_distance;
+        hit.normal = unit;
+        return true;
+    }
+
+    /// Whether a hit at `signed_distance` on triangle f of body bf loses to `best`: further
+    /// (unsigned), or as far on a higher (body, face).
+    bool loses_to(const NodeCandidate& best, double signed_distance, int bf, int f)
+    {
+        const double d = std::abs(signed_distance);
+        const double d_best = std::abs(best.distance);
+        return d > d_best
+            || (d == d_best && std::make_pair(bf, f) > std::make_pair(best.other_body, best.face));
     }
 } // namespace
 
@@ -366,32 +520,31 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
         }
 }
 
-void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
-    const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
+template <class Visit> void NarrowPhase::in_chunks(std::size_t n, const Visit& visit)
 {
-    prepare(bodies);
-    activate(bodies, pairs, margin);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, work_chunks, 1), [&](const tbb::blocked_range<int>& chunks) {
+            for (int c = chunks.begin(); c != chunks.end(); ++c) {
+                Scratch& scratch = m_scratch[static_cast<std::size_t>(c)];
+                for (std::size_t k = c * n / work_chunks; k != (c + 1) * n / work_chunks; ++k)
+                    visit(scratch, k);
+            }
+        });
+}
+
+void NarrowPhase::clear_scratch()
+{
     if (m_scratch.size() < static_cast<std::size_t>(work_chunks))
         m_scratch.resize(work_chunks);
-    // visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
-    const auto in_chunks = [&](std::size_t n, const auto& visit) {
-        tbb::parallel_for(
-            tbb::blocked_range<int>(0, work_chunks, 1), [&](const tbb::blocked_range<int>& chunks) {
-                for (int c = chunks.begin(); c != chunks.end(); ++c) {
-                    Scratch& scratch = m_scratch[static_cast<std::size_t>(c)];
-                    for (std::size_t k = c * n / work_chunks; k != (c + 1) * n / work_chunks; ++k)
-                        visit(scratch, k);
-                }
-            });
-    };
     for (Scratch& scratch : m_scratch) {
         scratch.intersecting.clear();
         scratch.triangle_tests = 0;
         scratch.node_tests = 0;
     }
+}
 
-    // Triangle pairs: each active triangle against the later bodies' active triangles (and its
-    // own body's later ones, for self pairs) whose boxes overlap its box.
+void NarrowPhase::build_work_lists()
+{
     m_work.clear();
     m_node_work.clear();
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
@@ -400,151 +553,100 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         for (std::size_t i = 0; i < m_bodies[b].nodes.size(); ++i)
             m_node_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
     }
-    in_chunks(m_work.size(), [&](Scratch& scratch, std::size_t k) {
-        const int ba = m_work[k][0];
-        const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
-        const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
-        const int fa = item.index;
-        const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
-        const Vec3 a0 = corner(a, fa, 0);
-        const Vec3 a1 = corner(a, fa, 1);
-        const Vec3 a2 = corner(a, fa, 2);
-        for (const int bb : data.partners) {
-            if (bb < ba)
-                continue;
-            const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-            overlapping(bb, item.box, 0.0, [&](int fb) {
-                if (bb == ba) {
-                    if (fb <= fa)
-                        return;
-                    bool shared = false;
-                    for (int u = 0; u < 3; ++u)
-                        for (int v = 0; v < 3; ++v)
-                            shared |= (*a.faces)(fa, u) == (*b.faces)(fb, v);
-                    if (shared || !self_pair_allowed(ba, fa, fb, false))
-                        return;
-                }
-                ++scratch.triangle_tests;
-                if (triangles_intersect(
-                        a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
-                    scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
-            });
-        }
-    });
+}
 
-    // Nodes: against the triangles of every partner body whose box grown by the reach holds
-    // them; the nearest within the reach (or behind) wins, ties to the lowest (body, face).
-    m_node_best.resize(m_node_work.size());
-    m_node_found.assign(m_node_work.size(), 0);
-    in_chunks(m_node_work.size(), [&](Scratch& scratch, std::size_t k) {
-        const int bn = m_node_work[k][0];
-        const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
-        const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
-        const NarrowPhaseBody& data_body = bodies[static_cast<std::size_t>(bn)];
-        const Vec3 x = item.box.min();
-        NodeCandidate& best = m_node_best[k];
-        bool found = false;
-        for (const int bf : data.partners) {
-            const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
-            // Within the margin (plus what gravity adds in a step against a body that does
-            // not fall: both dynamic bodies fall alike), or within reach of the node's approach
-            // in the step: at most its own speed and the other body's motion bound.
-            const double near = margin + (data_body.is_static != other.is_static ? extra : 0.0);
-            const double reach
-                = near + lookahead * node_velocity(data_body, item.index).norm() + other.motion;
-            overlapping(bf, item.box, reach, [&](int f) {
-                if (bf == bn) {
-                    if (other.nodes_are_vertices
-                        && ((*other.faces)(f, 0) == item.index || (*other.faces)(f, 1) == item.index
-                            || (*other.faces)(f, 2) == item.index))
-                        return;
-                    if (!self_pair_allowed(bn, item.index, f, true))
-                        return;
-                    if (other.rest_near_indptr != nullptr) {
-                        const int* begin
-                            = other.rest_near_list->data() + (*other.rest_near_indptr)(item.index);
-                        const int* end = other.rest_near_list->data()
-                            + (*other.rest_near_indptr)(item.index + 1);
-                        if (std::binary_search(begin, end, f))
-                            return;
-                    }
-                }
-                ++scratch.node_tests;
-                const Vec3 p0 = corner(other, f, 0);
-                const Vec3 p1 = corner(other, f, 1);
-                const Vec3 p2 = corner(other, f, 2);
-                const Vec3 n = (p1 - p0).cross(p2 - p0);
-                const double length = n.norm();
-                const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
-                const Vec3 v_node = node_velocity(data_body, item.index);
-                // In front of the triangle's plane by the reach or more, or by more than the
-                // node can close at its fastest approach to a corner (the closest point's
-                // velocity lies between the corners'): so is its closest point (which is at
-                // least as far), and the node is no candidate.
-                if (length > 0.0) {
-                    const double plane = unit.dot(x - p0);
-                    if (plane >= reach)
-                        return;
-                    if (plane >= near) {
-                        double approach = 0.0;
-                        for (int c = 0; c < 3; ++c)
-                            approach = std::max(approach,
-                                -unit.dot(v_node - node_velocity(other, (*other.faces)(f, c))));
-                        if (plane >= near + lookahead * approach)
-                            return;
-                    }
-                }
-                const PointTriangleClosest closest = point_triangle_closest(x, p0, p1, p2);
-                const double distance = std::sqrt(closest.squared_distance);
-                const double signed_distance
-                    = unit.dot(x - closest.point) < 0.0 ? -distance : distance;
-                // Behind: in the triangle's box grown by the margin only (a wider search would
-                // take in nodes on the far side of a part thinner than the reach). In front:
-                // within the margin, plus what the node may close in the step at its approach
-                // speed.
-                if (signed_distance < 0.0) {
-                    // Within one body, only within the margin: a vertex behind a face of
-                    // another part of its own body may just be on the far side of it.
-                    if (bf == bn && distance >= margin)
-                        return;
-                    const Vec3 lo = p0.cwiseMin(p1).cwiseMin(p2).array() - margin;
-                    const Vec3 hi = p0.cwiseMax(p1).cwiseMax(p2).array() + margin;
-                    if ((x.array() < lo.array()).any() || (x.array() > hi.array()).any())
-                        return;
-                } else if (signed_distance >= reach) {
-                    return;
-                }
-                if (signed_distance >= near) {
-                    Vec3 v_point = Vec3::Zero();
-                    for (int c = 0; c < 3; ++c)
-                        v_point
-                            += closest.barycentric(c) * node_velocity(other, (*other.faces)(f, c));
-                    const double approach = std::max(0.0, -unit.dot(v_node - v_point));
-                    if (signed_distance >= near + lookahead * approach)
-                        return;
-                }
-                const double d = std::abs(signed_distance);
-                const double d_best = std::abs(best.distance);
-                if (found
-                    && (d > d_best
-                        || (d == d_best
-                            && std::make_pair(bf, f) > std::make_pair(best.other_body, best.face))))
-                    return;
-                best.body = bn;
-                best.node = item.index;
-                best.other_body = bf;
-                best.face = f;
-                best.distance = signed_distance;
-                best.closest = closest.point;
-                best.barycentric = closest.barycentric;
-                best.normal = unit;
-                found = true;
-            });
-        }
-        m_node_found[k] = found;
-    });
+void NarrowPhase::test_triangle(
+    const std::vector<NarrowPhaseBody>& bodies, Scratch& scratch, std::size_t k) const
+{
+    const int ba = m_work[k][0];
+    const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
+    const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
+    const int fa = item.index;
+    const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
+    const Vec3 a0 = corner(a, fa, 0);
+    const Vec3 a1 = corner(a, fa, 1);
+    const Vec3 a2 = corner(a, fa, 2);
+    for (const int bb : data.partners) {
+        if (bb < ba)
+            continue;
+        const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
+        overlapping(bb, item.box, 0.0, [&](int fb) {
+            if (bb == ba
+                && (fb <= fa || share_corner(a, fa, b, fb)
+                    || !self_pair_allowed(ba, fa, fb, false)))
+                return;
+            ++scratch.triangle_tests;
+            if (triangles_intersect(
+                    a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
+                scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
+        });
+    }
+}
 
-    // Merge, in chunk order.
+bool NarrowPhase::own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const
+{
+    if (own.nodes_are_vertices
+        && ((*own.faces)(face, 0) == node || (*own.faces)(face, 1) == node
+            || (*own.faces)(face, 2) == node))
+        return true;
+    if (!self_pair_allowed(body, node, face, true))
+        return true;
+    if (own.rest_near_indptr != nullptr) {
+        const int* begin = own.rest_near_list->data() + (*own.rest_near_indptr)(node);
+        const int* end = own.rest_near_list->data() + (*own.rest_near_indptr)(node + 1);
+        if (std::binary_search(begin, end, face))
+            return true;
+    }
+    return false;
+}
+
+bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, double margin,
+    double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const
+{
+    const int bn = m_node_work[k][0];
+    const BodyData& data = m_bodies[static_cast<std::size_t>(bn)];
+    const Item& item = data.nodes[static_cast<std::size_t>(m_node_work[k][1])];
+    const NarrowPhaseBody& own = bodies[static_cast<std::size_t>(bn)];
+    NodeQuery query;
+    query.x = item.box.min();
+    query.velocity = node_velocity(own, item.index);
+    query.margin = margin;
+    query.lookahead = lookahead;
+    bool found = false;
+    for (const int bf : data.partners) {
+        const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
+        // Within the margin (plus what gravity adds in a step against a body that does not
+        // fall: both dynamic bodies fall alike), or within reach of the node's approach in the
+        // step: at most its own speed and the other body's motion bound.
+        query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
+        query.reach = query.near + lookahead * query.velocity.norm() + other.motion;
+        query.same_body = bf == bn;
+        overlapping(bf, item.box, query.reach, [&](int f) {
+            if (bf == bn && own_face_excluded(other, bn, item.index, f))
+                return;
+            ++scratch.node_tests;
+            FaceHit hit;
+            if (!node_face_hit(query, other, f, hit))
+                return;
+            if (found && loses_to(best, hit.distance, bf, f))
+                return;
+            best.body = bn;
+            best.node = item.index;
+            best.other_body = bf;
+            best.face = f;
+            best.distance = hit.distance;
+            best.closest = hit.closest.point;
+            best.barycentric = hit.closest.barycentric;
+            best.normal = hit.normal;
+            found = true;
+        });
+    }
+    return found;
+}
+
+void NarrowPhase::merge_results()
+{
+    // In chunk order.
     m_intersecting.clear();
     m_triangle_tests = 0;
     m_node_tests = 0;
@@ -563,6 +665,28 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         [](const NodeCandidate& x, const NodeCandidate& y) {
             return std::make_pair(x.body, x.node) < std::make_pair(y.body, y.node);
         });
+}
+
+void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
+    const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
+{
+    prepare(bodies);
+    activate(bodies, pairs, margin);
+    clear_scratch();
+    build_work_lists();
+    // Triangle pairs: each active triangle against the later bodies' active triangles (and its
+    // own body's later ones, for self pairs) whose boxes overlap its box.
+    in_chunks(
+        m_work.size(), [&](Scratch& scratch, std::size_t k) { test_triangle(bodies, scratch, k); });
+    // Nodes: against the triangles of every partner body whose box grown by the reach holds
+    // them; the nearest within the reach (or behind) wins, ties to the lowest (body, face).
+    m_node_best.resize(m_node_work.size());
+    m_node_found.assign(m_node_work.size(), 0);
+    in_chunks(m_node_work.size(), [&](Scratch& scratch, std::size_t k) {
+        m_node_found[k]
+            = nearest_triangle(bodies, margin, lookahead, extra, scratch, k, m_node_best[k]);
+    });
+    merge_results();
 }
 
 } // namespace mat

@@ -157,9 +157,43 @@ private:
     void prepare(const std::vector<NarrowPhaseBody>& bodies);
     void activate(const std::vector<NarrowPhaseBody>& bodies,
         const std::vector<PrimitivePairRef>& pairs, double margin);
+    /// work(body, data) for every body, in parallel.
+    template <class Work>
+    void for_each_body(const std::vector<NarrowPhaseBody>& bodies, const Work& work);
+    /// Grows the regions of a pair's two primitives by its region, and records the partners.
+    void add_pair(
+        const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin);
+    /// Extends a primitive's region by `region` (resetting it on its first pair of the run).
+    void extend_region(int body, int primitive, const Box3& region);
+    /// Files a body's triangles and nodes that lie in the regions of its active primitives.
+    void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
+    /// m_axis: the longest side of the box of every body's active triangles.
+    void choose_sweep_axis();
+    /// The grid of columns across `axis` over a body's active triangles.
+    static void size_columns(BodyData& data, int axis);
+    /// Sorts a body's active triangles by column, then along `axis` within a column.
+    static void sort_into_columns(BodyData& data, int axis);
+    /// Copies the sorted triangles' boxes and indices into the structure-of-arrays lists.
+    static void store_face_boxes(BodyData& data);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     template <class Visit>
     void overlapping(int body, const Box3& box, double grow, const Visit& visit) const;
+    /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
+    template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
+    /// Empties every chunk's scratch.
+    void clear_scratch();
+    /// m_work and m_node_work: every body's active triangles and nodes.
+    void build_work_lists();
+    /// Tests triangle m_work[k] against the overlapping triangles of its partners.
+    void test_triangle(
+        const std::vector<NarrowPhaseBody>& bodies, Scratch& scratch, std::size_t k) const;
+    /// The nearest triangle to node m_node_work[k] in `best`; false if none qualifies.
+    bool nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, double margin,
+        double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
+    /// Whether node `node` of body `body` never pairs with its own face `face`.
+    bool own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const;
+    /// Gathers the chunks' results into m_intersecting and m_candidates, sorted.
+    void merge_results();
 
     int m_run = 0;
     Index m_axis = 0; ///< the sweep axis of this run

@@ -99,100 +99,121 @@ namespace {
         }
     };
 
-    /// min g by the search above (steps 1 to 3). Faces whose dual bound (from the best
-    /// candidate's dual vector) is >= threshold(best g) are skipped, and the search ends when
-    /// the bound of the whole domain is; it also stops as soon as best g <= stop_at.
-    template <typename Threshold>
-    PairCandidate minimize(
-        const Pair& q, const DualBound& initial, Threshold threshold, double stop_at)
-    {
-        PairCandidate best, x;
-        DualBound bound = initial;
-        const auto consider = [&](const PairCandidate& c) {
+    /// The best candidate of the search so far, and the dual bound from its dual vector.
+    struct Search {
+        PairCandidate best;
+        DualBound bound;
+
+        /// Takes c as the best candidate if it is lower.
+        void consider(const Pair& q, const PairCandidate& c)
+        {
             if (!(c.g < best.g))
                 return;
             best = c;
             bound = DualBound(q, c.dual);
-        };
-        // Step 1: the corners.
+        }
+    };
+
+    /// Step 1: every corner.
+    void consider_corners(const Pair& q, Search& search)
+    {
         for (int i = 0; i < q.na; ++i)
             for (int j = 0; j < q.nb; ++j)
-                consider(detail::corner_candidate(q, i, j));
-        if (best.g <= stop_at)
-            return best;
-        const unsigned full_a = (1u << q.na) - 1u, full_b = (1u << q.nb) - 1u;
+                search.consider(q, detail::corner_candidate(q, i, j));
+    }
 
-        // Step 2: the greedy walk.
-        for (int step = 0; step < 6; ++step) {
-            if (bound.face(full_a, full_b) >= threshold(best.g))
-                return best;
-            unsigned next_a = 0, next_b = 0;
-            double lowest = k_infinity;
-            for (int i = 0; i < q.na; ++i) {
-                const unsigned mask = best.mask_a | 1u << i;
-                if (mask != best.mask_a && bound.face(mask, best.mask_b) < lowest) {
-                    lowest = bound.face(mask, best.mask_b);
-                    next_a = mask;
-                    next_b = best.mask_b;
-                }
+    /// The face that adds to the best candidate's face the sphere whose dual bound is lowest, in
+    /// (next_a, next_b); next_a is 0 when every sphere is in already.
+    void entering_face(const Pair& q, const Search& search, unsigned& next_a, unsigned& next_b)
+    {
+        const PairCandidate& best = search.best;
+        const DualBound& bound = search.bound;
+        next_a = 0;
+        next_b = 0;
+        double lowest = k_infinity;
+        for (int i = 0; i < q.na; ++i) {
+            const unsigned mask = best.mask_a | 1u << i;
+            if (mask != best.mask_a && bound.face(mask, best.mask_b) < lowest) {
+                lowest = bound.face(mask, best.mask_b);
+                next_a = mask;
+                next_b = best.mask_b;
             }
-            for (int j = 0; j < q.nb; ++j) {
-                const unsigned mask = best.mask_b | 1u << j;
-                if (mask != best.mask_b && bound.face(best.mask_a, mask) < lowest) {
-                    lowest = bound.face(best.mask_a, mask);
-                    next_a = best.mask_a;
-                    next_b = mask;
-                }
-            }
-            if (next_a == 0)
-                break;
-            const int k = detail::popcount3(next_a) + detail::popcount3(next_b) - 2;
-            unsigned drop_a = 0, drop_b = 0;
-            bool moved = false;
-            if (k <= 3 && detail::face_critical_point(q, next_a, next_b, k, x, drop_a, drop_b)) {
-                detail::evaluate_candidate(q, x);
-                x.mask_a = next_a;
-                x.mask_b = next_b;
-                moved = x.g < best.g;
-            } else if (k >= 2) {
-                // No critical point inside the face (or k = 4): pivot, i.e. the best of the
-                // faces that keep the entering sphere and leave out one other sphere.
-                PairCandidate pivot;
-                for (int side = 0; side < 2; ++side)
-                    for (int i = 0; i < 3; ++i) {
-                        const unsigned bit = 1u << i;
-                        if (!((side == 0 ? best.mask_a : best.mask_b) & bit))
-                            continue; // only a sphere of the old face leaves
-                        const unsigned mask_a = side == 0 ? next_a & ~bit : next_a;
-                        const unsigned mask_b = side == 1 ? next_b & ~bit : next_b;
-                        if (mask_a == 0 || mask_b == 0
-                            || !detail::face_critical_point(
-                                q, mask_a, mask_b, k - 1, x, drop_a, drop_b))
-                            continue;
-                        detail::evaluate_candidate(q, x);
-                        if (x.g < pivot.g) {
-                            pivot = x;
-                            pivot.mask_a = mask_a;
-                            pivot.mask_b = mask_b;
-                        }
-                    }
-                x = pivot;
-                moved = x.g < best.g;
-            }
-            if (!moved)
-                break;
-            consider(x);
-            if (best.g <= stop_at)
-                return best;
         }
+        for (int j = 0; j < q.nb; ++j) {
+            const unsigned mask = best.mask_b | 1u << j;
+            if (mask != best.mask_b && bound.face(best.mask_a, mask) < lowest) {
+                lowest = bound.face(best.mask_a, mask);
+                next_a = best.mask_a;
+                next_b = mask;
+            }
+        }
+    }
 
-        // Step 3: every face, skipping those the dual bound rules out.
+    /// The pivot from the entering face (next_a, next_b) with k parameters: the best critical
+    /// point of the faces that keep the entering sphere and leave out one sphere of best's face.
+    PairCandidate best_pivot(
+        const Pair& q, const PairCandidate& best, unsigned next_a, unsigned next_b, int k)
+    {
+        PairCandidate pivot, x;
+        unsigned drop_a = 0, drop_b = 0;
+        for (int side = 0; side < 2; ++side)
+            for (int i = 0; i < 3; ++i) {
+                const unsigned bit = 1u << i;
+                if (!((side == 0 ? best.mask_a : best.mask_b) & bit))
+                    continue; // only a sphere of the old face leaves
+                const unsigned mask_a = side == 0 ? next_a & ~bit : next_a;
+                const unsigned mask_b = side == 1 ? next_b & ~bit : next_b;
+                if (mask_a == 0 || mask_b == 0
+                    || !detail::face_critical_point(q, mask_a, mask_b, k - 1, x, drop_a, drop_b))
+                    continue;
+                detail::evaluate_candidate(q, x);
+                if (x.g < pivot.g) {
+                    pivot = x;
+                    pivot.mask_a = mask_a;
+                    pivot.mask_b = mask_b;
+                }
+            }
+        return pivot;
+    }
+
+    /// One step of the greedy walk (step 2): x, the entering face's critical point or else the
+    /// pivot; false when no sphere enters or x does not improve on the best candidate.
+    bool walk_step(const Pair& q, const Search& search, PairCandidate& x)
+    {
+        const PairCandidate& best = search.best;
+        unsigned next_a = 0, next_b = 0;
+        entering_face(q, search, next_a, next_b);
+        if (next_a == 0)
+            return false;
+        const int k = detail::popcount3(next_a) + detail::popcount3(next_b) - 2;
+        unsigned drop_a = 0, drop_b = 0;
+        if (k <= 3 && detail::face_critical_point(q, next_a, next_b, k, x, drop_a, drop_b)) {
+            detail::evaluate_candidate(q, x);
+            x.mask_a = next_a;
+            x.mask_b = next_b;
+            return x.g < best.g;
+        }
+        if (k >= 2) {
+            // No critical point inside the face (or k = 4): pivot.
+            x = best_pivot(q, best, next_a, next_b, k);
+            return x.g < best.g;
+        }
+        return false;
+    }
+
+    /// Step 3: the critical point of every face, skipping those whose dual bound is >=
+    /// threshold(best g); stops as soon as best g <= stop_at.
+    template <typename Threshold>
+    void consider_faces(const Pair& q, Search& search, Threshold threshold, double stop_at)
+    {
+        const unsigned full_a = (1u << q.na) - 1u, full_b = (1u << q.nb) - 1u;
+        PairCandidate x;
         for (int k = 1; k <= 3; ++k)
             for (unsigned mask_a = 1; mask_a <= full_a; ++mask_a)
                 for (unsigned mask_b = 1; mask_b <= full_b; ++mask_b) {
                     if (detail::popcount3(mask_a) + detail::popcount3(mask_b) - 2 != k)
                         continue;
-                    if (bound.face(mask_a, mask_b) >= threshold(best.g))
+                    if (search.bound.face(mask_a, mask_b) >= threshold(search.best.g))
                         continue;
                     unsigned drop_a = 0, drop_b = 0;
                     if (!detail::face_critical_point(q, mask_a, mask_b, k, x, drop_a, drop_b))
@@ -200,11 +221,42 @@ namespace {
                     detail::evaluate_candidate(q, x);
                     x.mask_a = mask_a;
                     x.mask_b = mask_b;
-                    consider(x);
-                    if (best.g <= stop_at)
-                        return best;
+                    search.consider(q, x);
+                    if (search.best.g <= stop_at)
+                        return;
                 }
-        return best;
+    }
+
+    /// min g by the search above (steps 1 to 3). Faces whose dual bound (from the best
+    /// candidate's dual vector) is >= threshold(best g) are skipped, and the search ends when
+    /// the bound of the whole domain is; it also stops as soon as best g <= stop_at.
+    template <typename Threshold>
+    PairCandidate minimize(
+        const Pair& q, const DualBound& initial, Threshold threshold, double stop_at)
+    {
+        Search search;
+        search.bound = initial;
+        // Step 1: the corners.
+        consider_corners(q, search);
+        if (search.best.g <= stop_at)
+            return search.best;
+        const unsigned full_a = (1u << q.na) - 1u, full_b = (1u << q.nb) - 1u;
+
+        // Step 2: the greedy walk.
+        for (int step = 0; step < 6; ++step) {
+            if (search.bound.face(full_a, full_b) >= threshold(search.best.g))
+                return search.best;
+            PairCandidate x;
+            if (!walk_step(q, search, x))
+                break;
+            search.consider(q, x);
+            if (search.best.g <= stop_at)
+                return search.best;
+        }
+
+        // Step 3: every face, skipping those the dual bound rules out.
+        consider_faces(q, search, threshold, stop_at);
+        return search.best;
     }
 
 } // namespace

@@ -73,82 +73,55 @@ namespace {
             w[i] /= sum;
     }
 
-    /// face_critical_point on the face with spheres ia[0..ka) of a and ib[0..kb) of b, with
-    /// K = ka + kb - 2 parameters: x = the weights of the spheres other than ia[0] and ib[0].
-    template <int K>
-    bool face_critical_point(const PairFrame& q, const int (&ia)[3], int ka, const int (&ib)[3],
-        int kb, PairCandidate& out, unsigned& drop_a, unsigned& drop_b)
-    {
-        // Columns of J and rho.
-        Vec3 column[K];
+    /// J = Q T on a face with K parameters, and rho (derivation section (2)).
+    template <int K> struct FaceFactor {
+        Vec3 basis[K]; ///< the columns of Q
+        double t_mat[K][K] = {}; ///< T, upper triangular
+        double inverse_diagonal[K]; ///< 1 / T's diagonal
         double rho[K];
+    };
+
+    /// The columns of J and rho on the face with spheres ia[0..ka) of a and ib[0..kb) of b, and
+    /// J = Q T by Gram-Schmidt with reorthogonalization (twice is enough); false if J is rank
+    /// deficient.
+    template <int K>
+    bool factor_face(const PairFrame& q, const int (&ia)[3], int ka, const int (&ib)[3], int kb,
+        FaceFactor<K>& factor)
+    {
+        Vec3 column[K];
         int n = 0;
         for (int t = 1; t < ka; ++t, ++n) {
             column[n] = q.a[ia[t]] - q.a[ia[0]];
-            rho[n] = q.ra[ia[t]] - q.ra[ia[0]];
+            factor.rho[n] = q.ra[ia[t]] - q.ra[ia[0]];
         }
         for (int t = 1; t < kb; ++t, ++n) {
             column[n] = q.b[ib[0]] - q.b[ib[t]];
-            rho[n] = q.rb[ib[t]] - q.rb[ib[0]];
+            factor.rho[n] = q.rb[ib[t]] - q.rb[ib[0]];
         }
-
-        // J = Q T by Gram-Schmidt with reorthogonalization (twice is enough).
-        Vec3 basis[K];
-        double t_mat[K][K] = {};
-        double inverse_diagonal[K];
         for (int col = 0; col < K; ++col) {
             Vec3 v = column[col];
             for (int pass = 0; pass < 2; ++pass)
                 for (int row = 0; row < col; ++row) {
-                    const double dot = basis[row].dot(v);
-                    v -= dot * basis[row];
-                    t_mat[row][col] += dot;
+                    const double dot = factor.basis[row].dot(v);
+                    v -= dot * factor.basis[row];
+                    factor.t_mat[row][col] += dot;
                 }
             const double norm = v.norm();
             if (!(norm > 0.0))
-                return false; // rank deficient: a smaller face holds the minimizer
-            t_mat[col][col] = norm;
-            inverse_diagonal[col] = 1.0 / norm;
-            basis[col] = v * inverse_diagonal[col];
+                return false;
+            factor.t_mat[col][col] = norm;
+            factor.inverse_diagonal[col] = 1.0 / norm;
+            factor.basis[col] = v * factor.inverse_diagonal[col];
         }
+        return true;
+    }
 
-        // T^T omega = rho (forward substitution); |w| = |omega|.
-        double omega[K];
-        double w2 = 0.0;
-        for (int row = 0; row < K; ++row) {
-            double sum = rho[row];
-            for (int col = 0; col < row; ++col)
-                sum -= t_mat[col][row] * omega[col];
-            omega[row] = sum * inverse_diagonal[row];
-            w2 += omega[row] * omega[row];
-        }
-        if (!(w2 < 1.0))
-            return false; // no minimizer inside the affine hull
-
-        // p = C0 - Q Q^T C0 (twice, for accuracy when C0 is nearly in range(J)).
-        double qc[K] = {};
-        Vec3 p = q.a[ia[0]] - q.b[ib[0]];
-        for (int pass = 0; pass < 2; ++pass)
-            for (int row = 0; row < K; ++row) {
-                const double dot = basis[row].dot(p);
-                p -= dot * basis[row];
-                qc[row] += dot;
-            }
-        if (K == 3)
-            p = Vec3::Zero(); // range(J) = R^3: the residual is rounding, and its direction
-                              // would spoil the dual vector below
-
-        // x* = z + s y with T z = -Q^T C0, T y = omega (back substitution).
-        const double s = p.norm() / std::sqrt(1.0 - w2);
-        double x[K];
-        for (int row = K - 1; row >= 0; --row) {
-            double sum = -qc[row] + s * omega[row];
-            for (int col = row + 1; col < K; ++col)
-                sum -= t_mat[row][col] * x[col];
-            x[row] = sum * inverse_diagonal[row];
-        }
-
-        // Weights; reject points outside the face (NaN fails the tests too).
+    /// The weights of the face's spheres at the ka + kb - 2 parameters x (clamped onto the face) in
+    /// out's weights; false if x lies outside the face (NaN fails the tests too), with the sphere
+    /// of the most negative weight in drop_a or drop_b.
+    bool face_weights(const double* x, const int (&ia)[3], int ka, const int (&ib)[3], int kb,
+        PairCandidate& out, unsigned& drop_a, unsigned& drop_b)
+    {
         double wa_face[3], wb_face[3];
         double sum_a = 0.0, sum_b = 0.0;
         for (int t = 1; t < ka; ++t) {
@@ -188,11 +161,63 @@ namespace {
             out.wa[ia[t]] = wa_face[t];
         for (int t = 0; t < kb; ++t)
             out.wb[ib[t]] = wb_face[t];
+        return true;
+    }
+
+    /// face_critical_point on the face with spheres ia[0..ka) of a and ib[0..kb) of b, with
+    /// K = ka + kb - 2 parameters: x = the weights of the spheres other than ia[0] and ib[0].
+    template <int K>
+    bool face_critical_point(const PairFrame& q, const int (&ia)[3], int ka, const int (&ib)[3],
+        int kb, PairCandidate& out, unsigned& drop_a, unsigned& drop_b)
+    {
+        FaceFactor<K> factor;
+        if (!factor_face(q, ia, ka, ib, kb, factor))
+            return false; // rank deficient: a smaller face holds the minimizer
+
+        // T^T omega = rho (forward substitution); |w| = |omega|.
+        double omega[K];
+        double w2 = 0.0;
+        for (int row = 0; row < K; ++row) {
+            double sum = factor.rho[row];
+            for (int col = 0; col < row; ++col)
+                sum -= factor.t_mat[col][row] * omega[col];
+            omega[row] = sum * factor.inverse_diagonal[row];
+            w2 += omega[row] * omega[row];
+        }
+        if (!(w2 < 1.0))
+            return false; // no minimizer inside the affine hull
+
+        // p = C0 - Q Q^T C0 (twice, for accuracy when C0 is nearly in range(J)).
+        double qc[K] = {};
+        Vec3 p = q.a[ia[0]] - q.b[ib[0]];
+        for (int pass = 0; pass < 2; ++pass)
+            for (int row = 0; row < K; ++row) {
+                const double dot = factor.basis[row].dot(p);
+                p -= dot * factor.basis[row];
+                qc[row] += dot;
+            }
+        if (K == 3)
+            p = Vec3::Zero(); // range(J) = R^3: the residual is rounding, and its direction
+                              // would spoil the dual vector below
+
+        // x* = z + s y with T z = -Q^T C0, T y = omega (back substitution).
+        const double s = p.norm() / std::sqrt(1.0 - w2);
+        double x[K];
+        for (int row = K - 1; row >= 0; --row) {
+            double sum = -qc[row] + s * omega[row];
+            for (int col = row + 1; col < K; ++col)
+                sum -= factor.t_mat[row][col] * x[col];
+            x[row] = sum * factor.inverse_diagonal[row];
+        }
+
+        // Weights; reject points outside the face.
+        if (!face_weights(x, ia, ka, ib, kb, out, drop_a, drop_b))
+            return false;
 
         // Dual vector of section (3): v = p / s + w (w when the centers coincide).
         Vec3 w = Vec3::Zero();
         for (int row = 0; row < K; ++row)
-            w += omega[row] * basis[row];
+            w += omega[row] * factor.basis[row];
         out.dual = s > 0.0 ? Vec3(p / s + w) : w;
         const double dual_norm = out.dual.norm();
         if (dual_norm > 1.0)

@@ -46,6 +46,16 @@ namespace {
         return true;
     }
 
+    /// Throws naming the first item whose box has a NaN coordinate.
+    void check_items(const std::vector<BroadPhaseItem>& items)
+    {
+        for (std::size_t i = 0; i < items.size(); ++i)
+            if (has_nan(items[i].box))
+                throw_error(
+                    "spatial hash: item {} (body {}, primitive {}) has a NaN box coordinate", i,
+                    items[i].body, items[i].primitive);
+    }
+
 } // namespace
 
 bool broad_phase_pair_allowed(const BroadPhaseItem& a, const BroadPhaseItem& b)
@@ -93,30 +103,41 @@ std::size_t SpatialHash::bucket(std::int64_t x, std::int64_t y, std::int64_t z) 
 void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
 {
     // Validate first, so that a throw leaves the previous build intact.
+    check_items(items);
+    copy_slots(items);
+    m_oversize.clear();
+    m_cell_size = choose_cell_size();
+    const double total_cells = assign_cells(m_cell_size);
+    size_table(total_cells);
+    // An entry per (item, cell), keyed by (bucket, start mask), then a counting sort by key:
+    // within a key the items increase.
+    count_entries();
+    scatter_entries();
+}
+
+void SpatialHash::copy_slots(const std::vector<BroadPhaseItem>& items)
+{
     const std::size_t n = items.size();
-    for (std::size_t i = 0; i < n; ++i)
-        if (has_nan(items[i].box))
-            throw_error("spatial hash: item {} (body {}, primitive {}) has a NaN box coordinate", i,
-                items[i].body, items[i].primitive);
     m_slots.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         Slot& slot = m_slots[i];
         slot.box = items[i].box;
         slot.body = items[i].body;
         slot.spheres = items[i].spheres;
-        slot.state = 0;
+        slot.state = items[i].box.isEmpty() ? 0 : 1;
     }
-    m_oversize.clear();
+}
 
-    // Cell size: the median of the largest extents of the non-empty boxes.
+double SpatialHash::choose_cell_size()
+{
+    // The median of the largest extents of the non-empty boxes.
     std::vector<double>& extents = m_extents;
     extents.clear();
     Box3 scene;
-    for (std::size_t i = 0; i < n; ++i) {
-        const Box3& box = items[i].box;
-        if (box.isEmpty())
+    for (const Slot& slot : m_slots) {
+        if (slot.state == 0)
             continue;
-        m_slots[i].state = 1;
+        const Box3& box = slot.box;
         const double extent = box.sizes().maxCoeff();
         if (std::isfinite(extent)) {
             extents.push_back(extent);
@@ -134,11 +155,13 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
     }
     if (!(h > 0.0) || !std::isfinite(h))
         h = 1.0;
-    m_cell_size = h;
+    return h;
+}
 
-    // Cell ranges; boxes covering too many cells, or too far out, are oversize.
+double SpatialHash::assign_cells(double h)
+{
     double total_cells = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = 0; i < m_slots.size(); ++i) {
         Slot& slot = m_slots[i];
         if (slot.state == 0)
             continue;
@@ -163,31 +186,37 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
             total_cells += cells;
         }
     }
+    return total_cells;
+}
 
-    // A power-of-two table with at least twice as many buckets as entries.
+void SpatialHash::size_table(double total_cells)
+{
+    // A power of two, at least twice the number of entries.
     std::size_t table = 16;
     while (static_cast<double>(table) < 2.0 * total_cells)
         table *= 2;
     m_mask = table - 1;
-
-    // An entry per (item, cell), keyed by (bucket, start mask), then a counting sort by key:
-    // within a key the items increase.
     m_table = table;
-    const std::size_t keys = table * start_groups;
+}
+
+template <class Visit> void SpatialHash::for_each_cell(const Visit& visit) const
+{
+    for (std::size_t i = 0; i < m_slots.size(); ++i) {
+        const Slot& r = m_slots[i];
+        if (r.state != 1)
+            continue;
+        for (std::int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
+            for (std::int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
+                for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x)
+                    visit(i, x, y, z);
+    }
+}
+
+void SpatialHash::count_entries()
+{
+    const std::size_t keys = m_table * start_groups;
     m_bucket_start.assign(keys + 1, 0);
     m_keys.clear();
-    // visit(i, x, y, z) for every cell of every hashed item, items in order.
-    const auto for_each_cell = [&](const auto& visit) {
-        for (std::size_t i = 0; i < n; ++i) {
-            const Slot& r = m_slots[i];
-            if (r.state != 1)
-                continue;
-            for (std::int64_t z = r.lo[2]; z <= r.hi[2]; ++z)
-                for (std::int64_t y = r.lo[1]; y <= r.hi[1]; ++y)
-                    for (std::int64_t x = r.lo[0]; x <= r.hi[0]; ++x)
-                        visit(i, x, y, z);
-        }
-    };
     for_each_cell([&](std::size_t i, std::int64_t x, std::int64_t y, std::int64_t z) {
         const Slot& r = m_slots[i];
         const std::size_t mask
@@ -198,6 +227,10 @@ void SpatialHash::build(const std::vector<BroadPhaseItem>& items)
     });
     for (std::size_t key = 0; key < keys; ++key)
         m_bucket_start[key + 1] += m_bucket_start[key];
+}
+
+void SpatialHash::scatter_entries()
+{
     m_entries.resize(m_keys.size());
     m_fill.assign(m_bucket_start.begin(), m_bucket_start.end() - 1);
     std::size_t e = 0;

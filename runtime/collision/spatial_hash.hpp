@@ -104,6 +104,21 @@ private:
         void resize(std::size_t n);
     };
 
+    /// Copies the items into m_slots: state 1 (hashed) for a non-empty box, 0 for an empty one.
+    void copy_slots(const std::vector<BroadPhaseItem>& items);
+    /// The cell side: the setting, or the median rule over the non-empty boxes.
+    double choose_cell_size();
+    /// Each hashed slot's cell range for cells of side h; a box covering too many cells (or too
+    /// far out) becomes oversize. Returns the number of cells of the others.
+    double assign_cells(double h);
+    /// m_table and m_mask: a power of two, at least twice `total_cells`.
+    void size_table(double total_cells);
+    /// visit(i, x, y, z) for every cell of every hashed item, items in order.
+    template <class Visit> void for_each_cell(const Visit& visit) const;
+    /// m_keys (per entry, its (bucket, start mask) key) and m_bucket_start (the keys' offsets).
+    void count_entries();
+    /// m_entries: every entry at its key's place, items increasing within a key.
+    void scatter_entries();
     std::size_t bucket(std::int64_t x, std::int64_t y, std::int64_t z) const;
     /// The pairs found in buckets [first, last), appended to `out` (unsorted).
     void bucket_pairs(std::size_t first, std::size_t last, std::vector<ItemPair>& out) const;

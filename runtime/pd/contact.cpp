@@ -41,6 +41,140 @@ std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_
     return nodes;
 }
 
+namespace {
+
+    /// One contact solve's data, with the steps of its projected Gauss-Seidel (docs/method.md,
+    /// section 5).
+    struct PlaneContactSolve {
+        const Eigen::Ref<const MatX>& coupling;
+        std::vector<char>& column_ready;
+        const std::function<void(Index)>& fill_column;
+        const std::vector<PlaneCollider>& planes;
+        const std::vector<ContactPair>& pairs;
+        const Eigen::Ref<const MatX3>& free_positions;
+        const Eigen::Ref<const MatX3>& start_positions;
+        Eigen::Ref<MatX3>& forces;
+        Eigen::Ref<MatX3>& positions;
+
+        /// Fills column c of the coupling the first time it is needed.
+        void ensure_column(Index c)
+        {
+            if (!column_ready[c]) {
+                fill_column(c);
+                column_ready[c] = 1;
+            }
+        }
+
+        /// Contact c's gap, at x + eps f with compliance.
+        double gap_of(Index c) const
+        {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            const double eps = plane.compliance * coupling(c, c);
+            return plane.normal.dot(
+                positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
+        }
+
+        /// Whether contact c pushes or is not clear of its plane.
+        bool in_working_set(Index c) const
+        {
+            return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0);
+        }
+
+        /// x = x_free + D f for the warm-start forces.
+        void apply_warm_start()
+        {
+            const Index m = static_cast<Index>(pairs.size());
+            positions = free_positions;
+            for (Index d = 0; d < m; ++d)
+                if (forces.row(d).squaredNorm() > 0.0) {
+                    ensure_column(d);
+                    for (Index c = 0; c < m; ++c)
+                        positions.row(c) += coupling(c, d) * forces.row(d);
+                }
+        }
+
+        /// Contact c's new force (Signorini normal, Coulomb tangent), and the working set's
+        /// positions moved by the change; returns how far c moves (0 if its force is unchanged).
+        double project(Index c, const std::vector<Index>& working)
+        {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            const double coupling_cc = coupling(c, c);
+            if (!(coupling_cc > 0.0))
+                return 0.0; // a node the global step cannot move (cannot happen for SPD)
+            // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
+            // unit force.
+            const double eps = plane.compliance * coupling_cc;
+            const double w = coupling_cc + eps;
+            const Vec3 n = plane.normal;
+            const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
+            const Vec3 f = forces.row(c).transpose();
+            const double f_n = n.dot(f);
+            const Vec3 f_t = f - f_n * n;
+
+            // Normal: the force that closes the gap (or none), Signorini.
+            const double gap = n.dot(x - plane.point);
+            const double f_n_new = std::max(0.0, f_n - gap / w);
+            // Tangent: the force that cancels the tangential displacement since the step start
+            // (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
+            Vec3 u = x - start_positions.row(c).transpose();
+            u -= n.dot(u) * n;
+            Vec3 f_t_new = f_t - u / w;
+            const double limit = plane.friction * f_n_new;
+            const double norm_t = f_t_new.norm();
+            if (norm_t > limit)
+                f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+
+            const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
+            if (delta.squaredNorm() == 0.0)
+                return 0.0;
+            forces.row(c) = (f_n_new * n + f_t_new).transpose();
+            ensure_column(c);
+            for (const Index d : working)
+                positions.row(d) += coupling(d, c) * delta.transpose();
+            return coupling_cc * delta.norm();
+        }
+
+        /// One sweep over the working set, in order: the largest position change.
+        double sweep(const std::vector<Index>& working)
+        {
+            double change = 0.0;
+            for (const Index c : working)
+                change = std::max(change, project(c, working));
+            return change;
+        }
+
+        /// Brings the positions of the contacts outside the working set up to date.
+        void update_outside(const std::vector<Index>& working, const std::vector<char>& member)
+        {
+            const Index m = static_cast<Index>(pairs.size());
+            for (Index d = 0; d < m; ++d)
+                if (!member[static_cast<std::size_t>(d)])
+                    positions.row(d) = free_positions.row(d);
+            for (const Index c : working)
+                if (forces.row(c).squaredNorm() > 0.0)
+                    for (Index d = 0; d < m; ++d)
+                        if (!member[static_cast<std::size_t>(d)])
+                            positions.row(d) += coupling(d, c) * forces.row(c);
+        }
+
+        /// Adds the contacts that have come into their plane to `member`, the deepest of their
+        /// penetrations in `depth`; false if none joins.
+        bool join(std::vector<char>& member, double& depth) const
+        {
+            const Index m = static_cast<Index>(pairs.size());
+            bool joined = false;
+            for (Index c = 0; c < m; ++c)
+                if (!member[static_cast<std::size_t>(c)] && in_working_set(c)) {
+                    member[static_cast<std::size_t>(c)] = 1;
+                    joined = true;
+                    depth = std::max(depth, -gap_of(c));
+                }
+            return joined;
+        }
+    };
+
+} // namespace
+
 ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
@@ -69,19 +203,9 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
         return result;
 
     // x = x_free + D f for the warm-start forces.
-    auto ensure_column = [&](Index c) {
-        if (!column_ready[c]) {
-            fill_column(c);
-            column_ready[c] = 1;
-        }
-    };
-    positions = free_positions;
-    for (Index d = 0; d < m; ++d)
-        if (forces.row(d).squaredNorm() > 0.0) {
-            ensure_column(d);
-            for (Index c = 0; c < m; ++c)
-                positions.row(c) += coupling(c, d) * forces.row(d);
-        }
+    PlaneContactSolve solve { coupling, column_ready, fill_column, planes, pairs, free_positions,
+        start_positions, forces, positions };
+    solve.apply_warm_start();
 
     // Projected Gauss-Seidel over a working set: the contacts that push or are not clear of
     // their plane. The others would change nothing in a sweep (no force, and a positive gap
@@ -89,19 +213,11 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     // to date; once it has converged, every position is brought up to date and a contact that
     // has come into its plane joins, and the sweeps go on (sweeping all contacts would act on
     // it in the sweep it came into its plane; both converge to the same conditions).
-    const auto gap_of = [&](Index c) {
-        const PlaneCollider& plane = planes[pairs[c].plane];
-        const double eps = plane.compliance * coupling(c, c);
-        return plane.normal.dot(
-            positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
-    };
-    const auto in_working_set
-        = [&](Index c) { return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0); };
     std::vector<Index>& working = scratch.working;
     std::vector<char>& member = scratch.member;
     member.resize(static_cast<std::size_t>(m));
     for (Index c = 0; c < m; ++c)
-        member[static_cast<std::size_t>(c)] = in_working_set(c) ? 1 : 0;
+        member[static_cast<std::size_t>(c)] = solve.in_working_set(c) ? 1 : 0;
 
     int sweep = 0;
     while (true) {
@@ -110,44 +226,7 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
             if (member[static_cast<std::size_t>(c)])
                 working.push_back(c);
         for (; sweep < settings.max_sweeps; ++sweep) {
-            double change = 0.0;
-            for (const Index c : working) {
-                const PlaneCollider& plane = planes[pairs[c].plane];
-                const double coupling_cc = coupling(c, c);
-                if (!(coupling_cc > 0.0))
-                    continue; // a node the global step cannot move (cannot happen for SPD)
-                // With compliance the conditions hold at x + eps f, which moves by
-                // (D_cc + eps) per unit force.
-                const double eps = plane.compliance * coupling_cc;
-                const double w = coupling_cc + eps;
-                const Vec3 n = plane.normal;
-                const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
-                const Vec3 f = forces.row(c).transpose();
-                const double f_n = n.dot(f);
-                const Vec3 f_t = f - f_n * n;
-
-                // Normal: the force that closes the gap (or none), Signorini.
-                const double gap = n.dot(x - plane.point);
-                const double f_n_new = std::max(0.0, f_n - gap / w);
-                // Tangent: the force that cancels the tangential displacement since the step
-                // start (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
-                Vec3 u = x - start_positions.row(c).transpose();
-                u -= n.dot(u) * n;
-                Vec3 f_t_new = f_t - u / w;
-                const double limit = plane.friction * f_n_new;
-                const double norm_t = f_t_new.norm();
-                if (norm_t > limit)
-                    f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
-
-                const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
-                if (delta.squaredNorm() == 0.0)
-                    continue;
-                forces.row(c) = (f_n_new * n + f_t_new).transpose();
-                ensure_column(c);
-                for (const Index d : working)
-                    positions.row(d) += coupling(d, c) * delta.transpose();
-                change = std::max(change, coupling_cc * delta.norm());
-            }
+            const double change = solve.sweep(working);
             result.sweeps = sweep + 1;
             result.last_change = change;
             if (change <= settings.tolerance) {
@@ -156,23 +235,9 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
             }
         }
         // Every position from the forces, then the contacts that have come into their plane.
-        for (Index d = 0; d < m; ++d)
-            if (!member[static_cast<std::size_t>(d)])
-                positions.row(d) = free_positions.row(d);
-        for (const Index c : working)
-            if (forces.row(c).squaredNorm() > 0.0)
-                for (Index d = 0; d < m; ++d)
-                    if (!member[static_cast<std::size_t>(d)])
-                        positions.row(d) += coupling(d, c) * forces.row(c);
-        bool joined = false;
+        solve.update_outside(working, member);
         double depth = 0.0; // the deepest of the contacts that join
-        for (Index c = 0; c < m; ++c)
-            if (!member[static_cast<std::size_t>(c)] && in_working_set(c)) {
-                member[static_cast<std::size_t>(c)] = 1;
-                joined = true;
-                depth = std::max(depth, -gap_of(c));
-            }
-        if (!joined)
+        if (!solve.join(member, depth))
             break;
         if (sweep >= settings.max_sweeps) {
             // No sweep left for them: not converged.
