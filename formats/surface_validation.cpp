@@ -88,230 +88,315 @@ namespace {
         return fmt::format("({:.6g}, {:.6g}, {:.6g})", p.x(), p.y(), p.z());
     }
 
-} // namespace
-
-SurfaceReport validate_surface(const SurfaceMesh& mesh, double relative_area_tolerance)
-{
-    SurfaceReport report;
-    const Index nv = mesh.num_vertices();
-    const Index nf = mesh.num_faces();
-    report.num_vertices = nv;
-    report.num_faces = nf;
-    const auto& P = mesh.positions;
-    const auto& F = mesh.faces;
-
-    // Coordinates.
-    std::vector<char> finite(nv, 1);
-    for (Index v = 0; v < nv; ++v) {
-        if (P.row(v).allFinite()) {
-            report.bbox.extend(Vec3(P.row(v).transpose()));
-            continue;
-        }
-        finite[v] = 0;
-        note(report.non_finite, v,
-            [&] { return fmt::format("vertex {} is {}", v, format_point(P.row(v).transpose())); });
-    }
-    const double diagonal = report.bbox.isEmpty() ? 0.0 : report.bbox.diagonal().norm();
-    const double area_tolerance = relative_area_tolerance * diagonal * diagonal;
-    const Vec3 origin = report.bbox.isEmpty() ? Vec3(Vec3::Zero()) : Vec3(report.bbox.center());
-
-    // Faces: index range, repeated indices, area. Only faces with three distinct valid indices
-    // enter the topology; only those with finite corners enter areas and volumes.
-    std::vector<char> topological(nf, 0), geometric(nf, 0), referenced(nv, 0);
-    for (Index f = 0; f < nf; ++f) {
-        const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
-        const auto in_range = [nv](int i) { return i >= 0 && i < nv; };
-        if (!in_range(a) || !in_range(b) || !in_range(c)) {
-            note(report.invalid_indices, f, [&] {
-                return fmt::format(
-                    "face {} is ({}, {}, {}) but there are {} vertices", f, a, b, c, nv);
-            });
-            continue;
-        }
-        referenced[a] = referenced[b] = referenced[c] = 1;
-        if (a == b || b == c || c == a) {
-            note(report.degenerate_faces, f,
-                [&] { return fmt::format("face {} ({}, {}, {}) repeats a vertex", f, a, b, c); });
-            continue;
-        }
-        topological[f] = 1;
-        if (!finite[a] || !finite[b] || !finite[c])
-            continue;
-        geometric[f] = 1;
-        const Vec3 pa = P.row(a), pb = P.row(b), pc = P.row(c);
-        const double area = 0.5 * (pb - pa).cross(pc - pa).norm();
-        if (area <= area_tolerance)
-            note(report.degenerate_faces, f, [&] {
-                return fmt::format("face {} ({}, {}, {}) has area {:.3g} (tolerance {:.3g})", f, a,
-                    b, c, area, area_tolerance);
-            });
-        // Signed volume: divergence theorem, sum of (1/6) (a - o) . ((b - o) x (c - o)).
-        report.signed_volume += (pa - origin).dot((pb - origin).cross(pc - origin)) / 6.0;
-    }
-    for (Index v = 0; v < nv; ++v)
-        if (!referenced[v])
-            note(report.unreferenced_vertices, v, [&] {
-                return fmt::format("vertex {} at {}", v, format_point(P.row(v).transpose()));
-            });
-
-    // Edges: sort the half-edges by undirected key; each run is one edge and its faces.
-    std::vector<HalfEdge> half_edges;
-    half_edges.reserve(3 * nf);
-    for (Index f = 0; f < nf; ++f)
-        if (topological[f])
-            for (int k = 0; k < 3; ++k) {
-                const int a = F(f, k), b = F(f, (k + 1) % 3);
-                half_edges.push_back({ std::min(a, b), std::max(a, b), int(f), k });
+    // Notes the non-finite vertices and extends the bbox over the others; returns the flags.
+    std::vector<char> check_coordinates(const SurfaceMesh& mesh, SurfaceReport& report)
+    {
+        const Index nv = mesh.num_vertices();
+        const auto& P = mesh.positions;
+        std::vector<char> finite(nv, 1);
+        for (Index v = 0; v < nv; ++v) {
+            if (P.row(v).allFinite()) {
+                report.bbox.extend(Vec3(P.row(v).transpose()));
+                continue;
             }
-    std::sort(half_edges.begin(), half_edges.end());
-
-    UnionFind corners(3 * nf); // corner 3f + k sits at vertex F(f, k)
-    UnionFind face_sets(nf);
-    std::vector<char> open_face(nf, 0); // on a boundary, non-manifold or inconsistent edge
-    const auto corner_at = [&](const HalfEdge& h, int vertex) {
-        return 3 * Index(h.face) + (F(h.face, h.corner) == vertex ? h.corner : (h.corner + 1) % 3);
-    };
-    for (std::size_t begin = 0; begin < half_edges.size();) {
-        std::size_t end = begin + 1;
-        while (end < half_edges.size() && half_edges[end].lo == half_edges[begin].lo
-            && half_edges[end].hi == half_edges[begin].hi)
-            ++end;
-        const HalfEdge& h = half_edges[begin];
-        const std::size_t n = end - begin;
-        const int a = F(h.face, h.corner), b = F(h.face, (h.corner + 1) % 3);
-        if (n == 1) {
-            open_face[h.face] = 1;
-            note(report.boundary_edges, h.face,
-                [&] { return fmt::format("edge ({}, {}) of face {}", a, b, h.face); });
-        } else if (n > 2) {
-            for (std::size_t i = begin; i < end; ++i)
-                open_face[half_edges[i].face] = 1;
-            note(report.non_manifold_edges, h.face, [&] {
-                return fmt::format("edge ({}, {}) shared by {} faces: {}, {}, {}{}", h.lo, h.hi, n,
-                    half_edges[begin].face, half_edges[begin + 1].face, half_edges[begin + 2].face,
-                    n > 3 ? ", ..." : "");
+            finite[v] = 0;
+            note(report.non_finite, v, [&] {
+                return fmt::format("vertex {} is {}", v, format_point(P.row(v).transpose()));
             });
-        } else {
-            const HalfEdge& g = half_edges[begin + 1];
-            if (F(g.face, g.corner) == a) {
-                open_face[h.face] = open_face[g.face] = 1;
-                note(report.inconsistent_orientation, h.face, [&] {
+        }
+        return finite;
+    }
+
+    /// Which faces enter the topology (three distinct valid indices) and which the geometry
+    /// (also finite corners).
+    struct FaceFlags {
+        std::vector<char> topological, geometric;
+    };
+
+    // Faces: index range, repeated indices, area, and the signed volume about `origin`; then the
+    // vertices no face references.
+    FaceFlags check_faces(const SurfaceMesh& mesh, const std::vector<char>& finite,
+        double area_tolerance, const Vec3& origin, SurfaceReport& report)
+    {
+        const Index nv = mesh.num_vertices();
+        const Index nf = mesh.num_faces();
+        const auto& P = mesh.positions;
+        const auto& F = mesh.faces;
+        FaceFlags flags { std::vector<char>(nf, 0), std::vector<char>(nf, 0) };
+        std::vector<char> referenced(nv, 0);
+        for (Index f = 0; f < nf; ++f) {
+            const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
+            const auto in_range = [nv](int i) { return i >= 0 && i < nv; };
+            if (!in_range(a) || !in_range(b) || !in_range(c)) {
+                note(report.invalid_indices, f, [&] {
                     return fmt::format(
-                        "edge ({}, {}) used in the same direction by faces {} and {}", a, b, h.face,
-                        g.face);
+                        "face {} is ({}, {}, {}) but there are {} vertices", f, a, b, c, nv);
+                });
+                continue;
+            }
+            referenced[a] = referenced[b] = referenced[c] = 1;
+            if (a == b || b == c || c == a) {
+                note(report.degenerate_faces, f, [&] {
+                    return fmt::format("face {} ({}, {}, {}) repeats a vertex", f, a, b, c);
+                });
+                continue;
+            }
+            flags.topological[f] = 1;
+            if (!finite[a] || !finite[b] || !finite[c])
+                continue;
+            flags.geometric[f] = 1;
+            const Vec3 pa = P.row(a), pb = P.row(b), pc = P.row(c);
+            const double area = 0.5 * (pb - pa).cross(pc - pa).norm();
+            if (area <= area_tolerance)
+                note(report.degenerate_faces, f, [&] {
+                    return fmt::format("face {} ({}, {}, {}) has area {:.3g} (tolerance {:.3g})", f,
+                        a, b, c, area, area_tolerance);
+                });
+            // Signed volume: divergence theorem, sum of (1/6) (a - o) . ((b - o) x (c - o)).
+            report.signed_volume += (pa - origin).dot((pb - origin).cross(pc - origin)) / 6.0;
+        }
+        for (Index v = 0; v < nv; ++v)
+            if (!referenced[v])
+                note(report.unreferenced_vertices, v, [&] {
+                    return fmt::format("vertex {} at {}", v, format_point(P.row(v).transpose()));
+                });
+        return flags;
+    }
+
+    /// The edges' connectivity: corner 3f + k sits at vertex F(f, k); corners joined across an
+    /// edge share a set, so do faces sharing an edge.
+    struct EdgeConnectivity {
+        UnionFind corners;
+        UnionFind face_sets;
+        std::vector<char> open_face; ///< on a boundary, non-manifold or inconsistent edge
+    };
+
+    // Edges: sorts the half-edges by undirected key; each run is one edge and its faces. Notes
+    // boundary, non-manifold and inconsistently oriented edges and joins corners and faces.
+    EdgeConnectivity check_edges(
+        const SurfaceMesh& mesh, const std::vector<char>& topological, SurfaceReport& report)
+    {
+        const Index nf = mesh.num_faces();
+        const auto& F = mesh.faces;
+        std::vector<HalfEdge> half_edges;
+        half_edges.reserve(3 * nf);
+        for (Index f = 0; f < nf; ++f)
+            if (topological[f])
+                for (int k = 0; k < 3; ++k) {
+                    const int a = F(f, k), b = F(f, (k + 1) % 3);
+                    half_edges.push_back({ std::min(a, b), std::max(a, b), int(f), k });
+                }
+        std::sort(half_edges.begin(), half_edges.end());
+
+        EdgeConnectivity edges { UnionFind(3 * nf), UnionFind(nf), std::vector<char>(nf, 0) };
+        std::vector<char>& open_face = edges.open_face;
+        const auto corner_at = [&](const HalfEdge& h, int vertex) {
+            return 3 * Index(h.face)
+                + (F(h.face, h.corner) == vertex ? h.corner : (h.corner + 1) % 3);
+        };
+        for (std::size_t begin = 0; begin < half_edges.size();) {
+            std::size_t end = begin + 1;
+            while (end < half_edges.size() && half_edges[end].lo == half_edges[begin].lo
+                && half_edges[end].hi == half_edges[begin].hi)
+                ++end;
+            const HalfEdge& h = half_edges[begin];
+            const std::size_t n = end - begin;
+            const int a = F(h.face, h.corner), b = F(h.face, (h.corner + 1) % 3);
+            if (n == 1) {
+                open_face[h.face] = 1;
+                note(report.boundary_edges, h.face,
+                    [&] { return fmt::format("edge ({}, {}) of face {}", a, b, h.face); });
+            } else if (n > 2) {
+                for (std::size_t i = begin; i < end; ++i)
+                    open_face[half_edges[i].face] = 1;
+                note(report.non_manifold_edges, h.face, [&] {
+                    return fmt::format("edge ({}, {}) shared by {} faces: {}, {}, {}{}", h.lo, h.hi,
+                        n, half_edges[begin].face, half_edges[begin + 1].face,
+                        half_edges[begin + 2].face, n > 3 ? ", ..." : "");
+                });
+            } else {
+                const HalfEdge& g = half_edges[begin + 1];
+                if (F(g.face, g.corner) == a) {
+                    open_face[h.face] = open_face[g.face] = 1;
+                    note(report.inconsistent_orientation, h.face, [&] {
+                        return fmt::format(
+                            "edge ({}, {}) used in the same direction by faces {} and {}", a, b,
+                            h.face, g.face);
+                    });
+                }
+            }
+            for (std::size_t i = begin + 1; i < end; ++i) {
+                edges.corners.unite(corner_at(h, h.lo), corner_at(half_edges[i], h.lo));
+                edges.corners.unite(corner_at(h, h.hi), corner_at(half_edges[i], h.hi));
+                edges.face_sets.unite(h.face, half_edges[i].face);
+            }
+            begin = end;
+        }
+        return edges;
+    }
+
+    // Vertices: the corners around a vertex joined through shared edges form its fans; notes
+    // the vertices with several.
+    void check_vertex_fans(const SurfaceMesh& mesh, const std::vector<char>& topological,
+        UnionFind& corners, SurfaceReport& report)
+    {
+        const Index nf = mesh.num_faces();
+        const auto& F = mesh.faces;
+        std::vector<std::pair<int, Index>> fans; // (vertex, fan root)
+        fans.reserve(3 * nf);
+        for (Index f = 0; f < nf; ++f)
+            if (topological[f])
+                for (int k = 0; k < 3; ++k)
+                    fans.emplace_back(F(f, k), corners.find(3 * f + k));
+        std::sort(fans.begin(), fans.end());
+        fans.erase(std::unique(fans.begin(), fans.end()), fans.end());
+        for (std::size_t begin = 0; begin < fans.size();) {
+            std::size_t end = begin + 1;
+            while (end < fans.size() && fans[end].first == fans[begin].first)
+                ++end;
+            if (end - begin > 1) {
+                const int v = fans[begin].first;
+                note(report.non_manifold_vertices, v, [&] {
+                    return fmt::format("vertex {} has {} separate fans of faces, e.g. around "
+                                       "faces {} and {}",
+                        v, end - begin, fans[begin].second / 3, fans[begin + 1].second / 3);
                 });
             }
+            begin = end;
         }
-        for (std::size_t i = begin + 1; i < end; ++i) {
-            corners.unite(corner_at(h, h.lo), corner_at(half_edges[i], h.lo));
-            corners.unite(corner_at(h, h.hi), corner_at(half_edges[i], h.hi));
-            face_sets.unite(h.face, half_edges[i].face);
-        }
-        begin = end;
     }
 
-    // Vertices: the corners around a vertex joined through shared edges form its fans.
-    std::vector<std::pair<int, Index>> fans; // (vertex, fan root)
-    fans.reserve(3 * nf);
-    for (Index f = 0; f < nf; ++f)
-        if (topological[f])
-            for (int k = 0; k < 3; ++k)
-                fans.emplace_back(F(f, k), corners.find(3 * f + k));
-    std::sort(fans.begin(), fans.end());
-    fans.erase(std::unique(fans.begin(), fans.end()), fans.end());
-    for (std::size_t begin = 0; begin < fans.size();) {
-        std::size_t end = begin + 1;
-        while (end < fans.size() && fans[end].first == fans[begin].first)
-            ++end;
-        if (end - begin > 1) {
-            const int v = fans[begin].first;
-            note(report.non_manifold_vertices, v, [&] {
-                return fmt::format("vertex {} has {} separate fans of faces, e.g. around faces {} "
-                                   "and {}",
-                    v, end - begin, fans[begin].second / 3, fans[begin + 1].second / 3);
-            });
-        }
-        begin = end;
-    }
+    /// Faces connected through edges, numbered by their first face; per component its size,
+    /// whether it is closed, its signed volume and its bbox.
+    struct Components {
+        std::vector<Index> component; ///< per face, -1 if not topological
+        std::vector<Index> first_face, size;
+        std::vector<char> closed;
+        std::vector<double> volume;
+        std::vector<Box3> box;
+    };
 
-    // Components: faces connected through edges, numbered by their first face.
-    std::vector<Index> component(nf, -1);
-    std::vector<Index> first_face, size;
-    std::vector<char> closed;
-    std::vector<double> volume;
-    std::vector<Box3> box;
-    for (Index f = 0; f < nf; ++f) {
-        if (!topological[f])
-            continue;
-        const Index root = face_sets.find(f);
-        if (component[root] < 0) {
-            component[root] = static_cast<Index>(first_face.size());
-            first_face.push_back(f);
-            size.push_back(0);
-            closed.push_back(1);
-            volume.push_back(0.0);
-            box.emplace_back();
+    // Numbers the components and measures each (volume about `origin`); reports several.
+    Components find_components(const SurfaceMesh& mesh, const FaceFlags& flags,
+        EdgeConnectivity& edges, const Vec3& origin, SurfaceReport& report)
+    {
+        const Index nf = mesh.num_faces();
+        const auto& P = mesh.positions;
+        const auto& F = mesh.faces;
+        Components components;
+        components.component.assign(nf, -1);
+        std::vector<Index>& component = components.component;
+        std::vector<Index>& first_face = components.first_face;
+        std::vector<Index>& size = components.size;
+        std::vector<char>& closed = components.closed;
+        std::vector<double>& volume = components.volume;
+        std::vector<Box3>& box = components.box;
+        for (Index f = 0; f < nf; ++f) {
+            if (!flags.topological[f])
+                continue;
+            const Index root = edges.face_sets.find(f);
+            if (component[root] < 0) {
+                component[root] = static_cast<Index>(first_face.size());
+                first_face.push_back(f);
+                size.push_back(0);
+                closed.push_back(1);
+                volume.push_back(0.0);
+                box.emplace_back();
+            }
+            const Index c = component[f] = component[root];
+            ++size[c];
+            if (edges.open_face[f] || !flags.geometric[f]) {
+                closed[c] = 0;
+                continue;
+            }
+            const Vec3 pa = P.row(F(f, 0)), pb = P.row(F(f, 1)), pc = P.row(F(f, 2));
+            volume[c] += (pa - origin).dot((pb - origin).cross(pc - origin)) / 6.0;
+            box[c].extend(pa).extend(pb).extend(pc);
         }
-        const Index c = component[f] = component[root];
-        ++size[c];
-        if (open_face[f] || !geometric[f]) {
-            closed[c] = 0;
-            continue;
+        const Index nc = static_cast<Index>(first_face.size());
+        report.num_components = nc;
+        if (nc > 1) {
+            report.components.count = nc;
+            report.components.example = 1;
+            report.components.description = fmt::format(
+                "component 1 with {} faces, starting at face {}", size[1], first_face[1]);
         }
-        const Vec3 pa = P.row(F(f, 0)), pb = P.row(F(f, 1)), pc = P.row(F(f, 2));
-        volume[c] += (pa - origin).dot((pb - origin).cross(pc - origin)) / 6.0;
-        box[c].extend(pa).extend(pb).extend(pc);
-    }
-    const Index nc = static_cast<Index>(first_face.size());
-    report.num_components = nc;
-    if (nc > 1) {
-        report.components.count = nc;
-        report.components.example = 1;
-        report.components.description
-            = fmt::format("component 1 with {} faces, starting at face {}", size[1], first_face[1]);
+        return components;
     }
 
     // Orientation of closed components: outer shells must enclose positive volume, cavities
     // (inside an odd number of other closed components) negative. Nesting is tested with the
     // generalized winding number (Jacobson et al. 2013) of each candidate container at a point
     // of the component; only containers whose bounding box holds the component are tried.
-    std::vector<std::vector<Index>> component_faces;
-    std::vector<Index> closed_ids;
-    for (Index c = 0; c < nc; ++c)
-        if (closed[c])
-            closed_ids.push_back(c);
-    std::vector<Index> depth(nc, 0);
-    if (closed_ids.size() > 1) {
-        component_faces.resize(nc);
-        for (Index f = 0; f < nf; ++f)
-            if (component[f] >= 0 && closed[component[f]])
-                component_faces[component[f]].push_back(f);
-        for (Index c : closed_ids) {
-            const Index f0 = first_face[c];
-            const Vec3 point
-                = (P.row(F(f0, 0)) + P.row(F(f0, 1)) + P.row(F(f0, 2))).transpose() / 3.0;
-            for (Index d : closed_ids) {
-                if (d == c || !box[d].contains(box[c]))
-                    continue;
-                double omega = 0.0;
-                for (Index f : component_faces[d])
-                    omega += solid_angle(P.row(F(f, 0)).transpose() - point,
-                        P.row(F(f, 1)).transpose() - point, P.row(F(f, 2)).transpose() - point);
-                if (std::abs(omega) > 2.0 * k_pi)
-                    ++depth[c];
+    void check_orientation(
+        const SurfaceMesh& mesh, const Components& components, SurfaceReport& report)
+    {
+        const Index nf = mesh.num_faces();
+        const Index nc = static_cast<Index>(components.first_face.size());
+        const auto& P = mesh.positions;
+        const auto& F = mesh.faces;
+        const std::vector<Index>& component = components.component;
+        const std::vector<char>& closed = components.closed;
+        std::vector<std::vector<Index>> component_faces;
+        std::vector<Index> closed_ids;
+        for (Index c = 0; c < nc; ++c)
+            if (closed[c])
+                closed_ids.push_back(c);
+        std::vector<Index> depth(nc, 0);
+        if (closed_ids.size() > 1) {
+            component_faces.resize(nc);
+            for (Index f = 0; f < nf; ++f)
+                if (component[f] >= 0 && closed[component[f]])
+                    component_faces[component[f]].push_back(f);
+            for (Index c : closed_ids) {
+                const Index f0 = components.first_face[c];
+                const Vec3 point
+                    = (P.row(F(f0, 0)) + P.row(F(f0, 1)) + P.row(F(f0, 2))).transpose() / 3.0;
+                for (Index d : closed_ids) {
+                    if (d == c || !components.box[d].contains(components.box[c]))
+                        continue;
+                    double omega = 0.0;
+                    for (Index f : component_faces[d])
+                        omega += solid_angle(P.row(F(f, 0)).transpose() - point,
+                            P.row(F(f, 1)).transpose() - point, P.row(F(f, 2)).transpose() - point);
+                    if (std::abs(omega) > 2.0 * k_pi)
+                        ++depth[c];
+                }
             }
         }
+        for (Index c : closed_ids) {
+            const bool cavity = depth[c] % 2 == 1;
+            const double volume = components.volume[c];
+            if (cavity ? volume > 0.0 : volume < 0.0)
+                note(report.inward_orientation, c, [&] {
+                    return fmt::format("component {} ({} faces, starting at face {}{}) has signed "
+                                       "volume {:.6g}",
+                        c, components.size[c], components.first_face[c],
+                        cavity ? fmt::format(", a cavity inside {} others", depth[c]) : "", volume);
+                });
+        }
     }
-    for (Index c : closed_ids) {
-        const bool cavity = depth[c] % 2 == 1;
-        if (cavity ? volume[c] > 0.0 : volume[c] < 0.0)
-            note(report.inward_orientation, c, [&] {
-                return fmt::format("component {} ({} faces, starting at face {}{}) has signed "
-                                   "volume {:.6g}",
-                    c, size[c], first_face[c],
-                    cavity ? fmt::format(", a cavity inside {} others", depth[c]) : "", volume[c]);
-            });
-    }
+
+} // namespace
+
+SurfaceReport validate_surface(const SurfaceMesh& mesh, double relative_area_tolerance)
+{
+    SurfaceReport report;
+    report.num_vertices = mesh.num_vertices();
+    report.num_faces = mesh.num_faces();
+
+    const std::vector<char> finite = check_coordinates(mesh, report);
+    const double diagonal = report.bbox.isEmpty() ? 0.0 : report.bbox.diagonal().norm();
+    const double area_tolerance = relative_area_tolerance * diagonal * diagonal;
+    const Vec3 origin = report.bbox.isEmpty() ? Vec3(Vec3::Zero()) : Vec3(report.bbox.center());
+
+    // Only faces with three distinct valid indices enter the topology; only those with finite
+    // corners enter areas and volumes.
+    const FaceFlags flags = check_faces(mesh, finite, area_tolerance, origin, report);
+    EdgeConnectivity edges = check_edges(mesh, flags.topological, report);
+    check_vertex_fans(mesh, flags.topological, edges.corners, report);
+    const Components components = find_components(mesh, flags, edges, origin, report);
+    check_orientation(mesh, components, report);
     return report;
 }
 

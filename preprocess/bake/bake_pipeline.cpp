@@ -152,45 +152,43 @@ namespace {
         return any ? worst / scale : -1.0;
     }
 
-} // namespace
+    // Rejects option values no bake can use, before any work.
+    void check_options(const BakeOptions& options)
+    {
+        if (!(options.tet_size > 0 && options.tet_size < 1))
+            throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
+                options.tet_size);
+        if (options.weights_per_node < 1)
+            throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
+        if (options.spheres > 0 && !options.medial.empty())
+            throw_error("--spheres and --medial exclude each other: generate the medial mesh or "
+                        "read it, not both");
+    }
 
-BakeData run_bake(const BakeOptions& options, BakeReport& report)
-{
-    return run_bake(options, report, nullptr);
-}
+    // Step 1: reads and checks the surface, and the medial mesh unless it is to be generated.
+    void read_inputs(
+        const BakeOptions& options, BakeData& bake, BakeReport& report, MedialMesh& input_medial)
+    {
+        stage(report, "read inputs", [&] {
+            bake.surface = read_surface(options.surface);
+            const SurfaceReport surface_report = validate_surface(bake.surface);
+            require_closed_manifold(surface_report, options.surface);
+            bake.surface_hash = hash_file(options.surface);
+            report.bbox_diagonal = surface_report.bbox.diagonal().norm();
+            if (report.medial_generated)
+                return;
+            input_medial = read_medial(options.medial);
+            if (input_medial.num_spheres() == 0)
+                throw_error("{}: the medial mesh has no sphere", options.medial);
+            require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
+            bake.medial_hash = hash_file(options.medial);
+        });
+    }
 
-BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMesh* generated)
-{
-    if (!(options.tet_size > 0 && options.tet_size < 1))
-        throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
-            options.tet_size);
-    if (options.weights_per_node < 1)
-        throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
-    if (options.spheres > 0 && !options.medial.empty())
-        throw_error("--spheres and --medial exclude each other: generate the medial mesh or read "
-                    "it, not both");
-    BakeData bake;
-    bake.surface_file = options.surface;
-    bake.medial_file = options.medial;
-    report.medial_generated = options.spheres > 0;
-
-    // 1. Inputs.
-    MedialMesh input_medial;
-    stage(report, "read inputs", [&] {
-        bake.surface = read_surface(options.surface);
-        const SurfaceReport surface_report = validate_surface(bake.surface);
-        require_closed_manifold(surface_report, options.surface);
-        bake.surface_hash = hash_file(options.surface);
-        report.bbox_diagonal = surface_report.bbox.diagonal().norm();
-        if (report.medial_generated)
-            return;
-        input_medial = read_medial(options.medial);
-        if (input_medial.num_spheres() == 0)
-            throw_error("{}: the medial mesh has no sphere", options.medial);
-        require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
-        bake.medial_hash = hash_file(options.medial);
-    });
-    if (report.medial_generated)
+    // Generates the medial mesh of the surface (or takes `generated`, already made from it).
+    void generate_medial(const BakeOptions& options, const MedialMesh* generated, BakeData& bake,
+        BakeReport& report, MedialMesh& input_medial)
+    {
         stage(report, "generate medial", [&] {
             MedialGeneratorOptions generator = options.generator;
             generator.spheres = options.spheres;
@@ -201,61 +199,69 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
             bake.medial_file = fmt::format("(generated: {} spheres)", options.spheres);
             bake.medial_hash = hash_text(format_medial(input_medial));
         });
-    report.surface_vertices = bake.surface.num_vertices();
-    report.surface_faces = bake.surface.num_faces();
-    report.medial_spheres = input_medial.num_spheres();
-    report.medial_cones = input_medial.num_cones();
-    report.medial_slabs = input_medial.num_slabs();
-    const Eigen::Matrix<bool, Eigen::Dynamic, 1> quadratic
-        = parse_quadratic(options.quadratic, input_medial.num_spheres());
+    }
 
-    stage(report, "medial coverage", [&] {
-        MedialCoverage coverage = measure_coverage(input_medial, bake.surface);
-        bake.medial = inflate_to_cover(input_medial, coverage);
-        bake.medial_input_radii = input_medial.radii;
-        bake.medial_inflation = coverage.inflation;
-        report.uncovered_vertices = coverage.uncovered;
-        report.max_outside = coverage.max_outside;
-        report.inflation = coverage.inflation;
-    });
+    // Inflates the radii by the least uniform amount whose envelope covers every surface vertex.
+    void cover_surface(const MedialMesh& input_medial, BakeData& bake, BakeReport& report)
+    {
+        stage(report, "medial coverage", [&] {
+            MedialCoverage coverage = measure_coverage(input_medial, bake.surface);
+            bake.medial = inflate_to_cover(input_medial, coverage);
+            bake.medial_input_radii = input_medial.radii;
+            bake.medial_inflation = coverage.inflation;
+            report.uncovered_vertices = coverage.uncovered;
+            report.max_outside = coverage.max_outside;
+            report.inflation = coverage.inflation;
+        });
+    }
 
-    // 2. Tetrahedralization.
-    stage(report, "tetrahedralize", [&] {
-        bake.tet_mesh = tetrahedralize(
-            bake.surface, tetrahedralize_options_for(report.bbox_diagonal, options.tet_size));
-        const TetQuality quality = tet_quality(bake.tet_mesh);
-        report.tets = quality.num_tets;
-        report.nodes = quality.num_vertices;
-        report.min_dihedral_degrees = quality.min_dihedral_degrees;
-    });
+    // Step 2: meshes the surface's interior into tets and records their quality.
+    void tetrahedralize_interior(const BakeOptions& options, BakeData& bake, BakeReport& report)
+    {
+        stage(report, "tetrahedralize", [&] {
+            bake.tet_mesh = tetrahedralize(
+                bake.surface, tetrahedralize_options_for(report.bbox_diagonal, options.tet_size));
+            const TetQuality quality = tet_quality(bake.tet_mesh);
+            report.tets = quality.num_tets;
+            report.nodes = quality.num_vertices;
+            report.min_dihedral_degrees = quality.min_dihedral_degrees;
+        });
+    }
 
-    // 3. Embedding of the surface vertices and the sphere centers.
-    stage(report, "embed", [&] {
-        const TetEmbedding surface = embed_points(bake.tet_mesh, bake.surface.positions);
-        bake.surface_tet = surface.tet;
-        bake.surface_barycentric = surface.barycentric;
-        bake.surface_outside_count = surface.outside_count;
-        report.surface_outside_tets = surface.outside_count;
-        const TetEmbedding medial = embed_points(bake.tet_mesh, bake.medial.centers);
-        bake.medial_tet = medial.tet;
-        bake.medial_barycentric = medial.barycentric;
-        report.medial_outside_tets = medial.outside_count;
-        report.medial_max_outside_distance = medial.max_outside_distance;
-    });
+    // Step 3: embeds the surface vertices and the sphere centers in the tets.
+    void embed_surface_and_centers(BakeData& bake, BakeReport& report)
+    {
+        stage(report, "embed", [&] {
+            const TetEmbedding surface = embed_points(bake.tet_mesh, bake.surface.positions);
+            bake.surface_tet = surface.tet;
+            bake.surface_barycentric = surface.barycentric;
+            bake.surface_outside_count = surface.outside_count;
+            report.surface_outside_tets = surface.outside_count;
+            const TetEmbedding medial = embed_points(bake.tet_mesh, bake.medial.centers);
+            bake.medial_tet = medial.tet;
+            bake.medial_barycentric = medial.barycentric;
+            report.medial_outside_tets = medial.outside_count;
+            report.medial_max_outside_distance = medial.max_outside_distance;
+        });
+    }
 
-    // 4-6. Harmonic weights, handle basis, PD operators. When the basis comes out rank-deficient
-    // (many spheres: a handle whose small region is hemmed in by its neighbours' keeps its
-    // weight on a node or two), once more with every such region widened to a tet (step
-    // 4 of handle_regions.hpp). Bakes whose basis is fine are not changed.
-    Eigen::SparseMatrix<double> laplacian;
-    TetRestData rest;
-    HandleBasis basis;
-    const auto weights_basis_operators = [&](bool widen) {
+    // What steps 4-6 share across their passes: the tets' rest data, the Laplacian and B.
+    struct OperatorInputs {
+        Eigen::SparseMatrix<double> laplacian;
+        TetRestData rest;
+        HandleBasis basis;
+    };
+
+    // Step 4: harmonic weights over the handle regions, each widened to a tet if `widen` (the
+    // first pass also computes the rest data and the Laplacian that both passes use).
+    void compute_weights(const BakeOptions& options, const MedialMesh& input_medial, bool widen,
+        OperatorInputs& inputs, BakeData& bake, BakeReport& report)
+    {
         stage(report, "harmonic weights", [&] {
             if (!widen) { // the tets' rest data and the Laplacian serve both passes
-                rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
-                laplacian
-                    = assemble_laplacian(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest);
+                inputs.rest = compute_tet_rest_data(bake.tet_mesh.positions, bake.tet_mesh.tets);
+                inputs.laplacian = assemble_laplacian(
+                    bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, inputs.rest);
             }
             WholeTetRegions regions;
             regions.owner = assign_handle_regions(bake.tet_mesh.positions, input_medial.centers,
@@ -271,19 +277,26 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
             HarmonicWeightOptions weight_options;
             weight_options.max_handles_per_node = options.weights_per_node;
             HarmonicWeights weights = compute_harmonic_weights(
-                laplacian, regions.owner, input_medial.num_spheres(), weight_options);
+                inputs.laplacian, regions.owner, input_medial.num_spheres(), weight_options);
             bake.weights = std::move(weights.weights);
             report.weight_partition_error = weights.diagnostics.max_partition_error;
             report.weight_min = weights.diagnostics.min_weight;
             report.weight_max = weights.diagnostics.max_weight;
             report.weight_sparsify_change = weights.diagnostics.max_sparsify_change;
         });
-        // 5. Handle basis.
+    }
+
+    // Step 5: the handle basis B, checked to reproduce affine fields.
+    void compute_basis(const MedialMesh& input_medial,
+        const Eigen::Matrix<bool, Eigen::Dynamic, 1>& quadratic, OperatorInputs& inputs,
+        BakeData& bake, BakeReport& report)
+    {
         stage(report, "handle basis", [&] {
             const VecX scales = handle_support_scales(
                 bake.tet_mesh.positions, bake.weights, input_medial.centers);
-            basis = build_handle_basis(
+            inputs.basis = build_handle_basis(
                 bake.tet_mesh.positions, bake.weights, input_medial.centers, scales, quadratic);
+            const HandleBasis& basis = inputs.basis;
             report.linear_precision_error = linear_precision_error(basis, bake.tet_mesh.positions);
             report.quadratic_precision_error
                 = quadratic_precision_error(basis, bake.weights, bake.tet_mesh.positions);
@@ -296,55 +309,116 @@ BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMe
             bake.handle_column_offsets = basis.handle_offset;
             bake.basis = basis.basis;
         });
-        report.handles = basis.num_handles();
+        report.handles = inputs.basis.num_handles();
         report.quadratic_handles = quadratic.count();
-        report.columns = basis.num_columns();
+        report.columns = inputs.basis.num_columns();
+    }
 
-        // 6. PD operators.
+    // Step 6: the PD operators (masses, Laplacian, their reductions), checked SPD.
+    void compute_pd_operators(const OperatorInputs& inputs, BakeData& bake, BakeReport& report)
+    {
         stage(report, "pd operators", [&] {
-            bake.dm_inverse = rest.dm_inverse;
-            bake.rest_volumes = rest.volumes;
-            bake.lumped_mass
-                = lumped_masses(bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, rest.volumes);
-            bake.laplacian = laplacian;
+            bake.dm_inverse = inputs.rest.dm_inverse;
+            bake.rest_volumes = inputs.rest.volumes;
+            bake.lumped_mass = lumped_masses(
+                bake.tet_mesh.num_vertices(), bake.tet_mesh.tets, inputs.rest.volumes);
+            bake.laplacian = inputs.laplacian;
             const ReducedOperators reduced
-                = reduce_operators(bake.basis, laplacian, bake.lumped_mass);
+                = reduce_operators(bake.basis, inputs.laplacian, bake.lumped_mass);
             // A representative system (E ~ 1e5 Pa, 1000 kg/m^3, dt = 1/30 s) must be SPD.
             const ReducedSystemCheck check = check_reduced_system(reduced, 1e5, 1000.0, 1.0 / 30.0);
             report.reduced_reciprocal_condition = check.reciprocal_condition;
             bake.reduced_laplacian = reduced.laplacian;
             bake.reduced_mass = reduced.mass;
         });
-    };
-    try {
-        weights_basis_operators(false);
-    } catch (const Error& error) {
-        if (!reports_rank_deficient_basis(error))
-            throw;
-        logger().info("{}: widening the regions that do not span 3D, then again", error.what());
-        weights_basis_operators(true);
     }
 
-    // 7. Collision-bound data.
-    stage(report, "collision data", [&] {
-        const SparseRowMatrix surface_basis = interpolate_rows(
-            bake.basis, bake.tet_mesh.tets, bake.surface_tet, bake.surface_barycentric);
-        bake.medial_basis = interpolate_rows(
-            bake.basis, bake.tet_mesh.tets, bake.medial_tet, bake.medial_barycentric);
-        bake.collision = build_collision_data(bake.medial, bake.surface, surface_basis,
-            bake.medial_basis, bake.handle_column_offsets);
-    });
-
-    nlohmann::json json;
-    json["tet_size"] = options.tet_size;
-    json["quadratic"] = options.quadratic;
-    json["weights_per_node"] = options.weights_per_node;
-    json["region_alpha"] = options.region_alpha;
-    if (report.medial_generated) {
-        json["spheres"] = options.spheres;
-        json["medial_samples"] = options.generator.samples;
+    // Steps 4-6: harmonic weights, handle basis, PD operators. When the basis comes out
+    // rank-deficient (many spheres: a handle whose small region is hemmed in by its neighbours'
+    // keeps its weight on a node or two), once more with every such region widened to a tet
+    // (step 4 of handle_regions.hpp). Bakes whose basis is fine are not changed.
+    void compute_weights_basis_operators(const BakeOptions& options, const MedialMesh& input_medial,
+        const Eigen::Matrix<bool, Eigen::Dynamic, 1>& quadratic, BakeData& bake, BakeReport& report)
+    {
+        OperatorInputs inputs;
+        const auto weights_basis_operators = [&](bool widen) {
+            compute_weights(options, input_medial, widen, inputs, bake, report);
+            compute_basis(input_medial, quadratic, inputs, bake, report);
+            compute_pd_operators(inputs, bake, report);
+        };
+        try {
+            weights_basis_operators(false);
+        } catch (const Error& error) {
+            if (!reports_rank_deficient_basis(error))
+                throw;
+            logger().info("{}: widening the regions that do not span 3D, then again", error.what());
+            weights_basis_operators(true);
+        }
     }
-    bake.options_json = json.dump();
+
+    // Step 7: the collision-bound data, from B interpolated at the surface vertices and centers.
+    void compute_collision_data(BakeData& bake, BakeReport& report)
+    {
+        stage(report, "collision data", [&] {
+            const SparseRowMatrix surface_basis = interpolate_rows(
+                bake.basis, bake.tet_mesh.tets, bake.surface_tet, bake.surface_barycentric);
+            bake.medial_basis = interpolate_rows(
+                bake.basis, bake.tet_mesh.tets, bake.medial_tet, bake.medial_barycentric);
+            bake.collision = build_collision_data(bake.medial, bake.surface, surface_basis,
+                bake.medial_basis, bake.handle_column_offsets);
+        });
+    }
+
+    // The options the bake depends on, as the JSON text stored in the bake.
+    std::string options_json(const BakeOptions& options, bool medial_generated)
+    {
+        nlohmann::json json;
+        json["tet_size"] = options.tet_size;
+        json["quadratic"] = options.quadratic;
+        json["weights_per_node"] = options.weights_per_node;
+        json["region_alpha"] = options.region_alpha;
+        if (medial_generated) {
+            json["spheres"] = options.spheres;
+            json["medial_samples"] = options.generator.samples;
+        }
+        return json.dump();
+    }
+
+} // namespace
+
+BakeData run_bake(const BakeOptions& options, BakeReport& report)
+{
+    return run_bake(options, report, nullptr);
+}
+
+BakeData run_bake(const BakeOptions& options, BakeReport& report, const MedialMesh* generated)
+{
+    check_options(options);
+    BakeData bake;
+    bake.surface_file = options.surface;
+    bake.medial_file = options.medial;
+    report.medial_generated = options.spheres > 0;
+
+    // 1. Inputs.
+    MedialMesh input_medial;
+    read_inputs(options, bake, report, input_medial);
+    if (report.medial_generated)
+        generate_medial(options, generated, bake, report, input_medial);
+    report.surface_vertices = bake.surface.num_vertices();
+    report.surface_faces = bake.surface.num_faces();
+    report.medial_spheres = input_medial.num_spheres();
+    report.medial_cones = input_medial.num_cones();
+    report.medial_slabs = input_medial.num_slabs();
+    const Eigen::Matrix<bool, Eigen::Dynamic, 1> quadratic
+        = parse_quadratic(options.quadratic, input_medial.num_spheres());
+    cover_surface(input_medial, bake, report);
+
+    // 2-7. Tets, embedding, weights, basis, PD operators, collision data.
+    tetrahedralize_interior(options, bake, report);
+    embed_surface_and_centers(bake, report);
+    compute_weights_basis_operators(options, input_medial, quadratic, bake, report);
+    compute_collision_data(bake, report);
+    bake.options_json = options_json(options, report.medial_generated);
     return bake;
 }
 

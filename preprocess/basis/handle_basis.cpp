@@ -17,13 +17,6 @@ namespace {
     {
         return quadratic ? quadratic_handle_terms : linear_handle_terms;
     }
-
-    // The 10 monomials of y in BasisTerm order.
-    std::array<double, 10> monomials(const Vec3& y)
-    {
-        return { 1.0, y[0], y[1], y[2], y[0] * y[0], y[1] * y[1], y[2] * y[2], y[0] * y[1],
-            y[1] * y[2], y[0] * y[2] };
-    }
 } // namespace
 
 HandleBasis build_handle_basis(const Eigen::Ref<const MatX3>& rest_positions,
@@ -90,7 +83,8 @@ HandleBasis build_handle_basis(const Eigen::Ref<const MatX3>& rest_positions,
                 const Vec3 x = rest_positions.row(i);
                 for (const auto& [j, w] : row) {
                     const Vec3 y = (x - centers.row(j).transpose()) / scales[j];
-                    const std::array<double, 10> p = monomials(y);
+                    double p[quadratic_handle_terms];
+                    handle_monomials(y[0], y[1], y[2], p);
                     for (int term = 0; term < terms_of(quadratic[j]); ++term) {
                         inner[position] = result.handle_offset[j] + term;
                         values[position++] = w * p[term];

@@ -12,10 +12,12 @@
 #include <Eigen/SparseCore>
 
 #include "common/eigen_types.hpp"
+#include "common/handle_monomials.hpp"
 
 namespace mat {
 
-/// The polynomial term of a basis column, in column order within a handle.
+/// The polynomial term of a basis column, in column order within a handle: the index of its
+/// monomial in handle_monomials() (common/handle_monomials.hpp).
 enum class BasisTerm : int {
     constant = 0,
     y1,
@@ -29,8 +31,8 @@ enum class BasisTerm : int {
     y1y3,
 };
 
-inline constexpr int linear_handle_terms = 4;
-inline constexpr int quadratic_handle_terms = 10;
+static_assert(static_cast<int>(BasisTerm::y3) + 1 == linear_handle_terms
+    && static_cast<int>(BasisTerm::y1y3) + 1 == quadratic_handle_terms);
 
 struct HandleBasis {
     Eigen::SparseMatrix<double, Eigen::RowMajor> basis; ///< #V x k

@@ -73,71 +73,88 @@ double point_tet_distance(const Eigen::Ref<const Vec3>& a, const Eigen::Ref<cons
     return best;
 }
 
-TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& points)
-{
-    if (mesh.num_tets() == 0)
-        throw_error("cannot embed points: the tet mesh has no tets");
-    auto corner = [&](Index t, int k) { return mesh.positions.row(mesh.tets(t, k)).transpose(); };
+namespace {
 
-    // Inside queries: a grid over the tets. Outside queries: a grid over the boundary faces
-    // (faces of one tet only), since the nearest point of the mesh lies on its boundary.
-    std::vector<Box3> tet_boxes(static_cast<size_t>(mesh.num_tets()));
-    for (Index t = 0; t < mesh.num_tets(); ++t)
-        for (int k = 0; k < 4; ++k)
-            tet_boxes[static_cast<size_t>(t)].extend(corner(t, k));
-    const BoxGrid tet_grid(tet_boxes);
+    // Corner k of tet t.
+    auto tet_corner(const TetMesh& mesh, Index t, int k)
+    {
+        return mesh.positions.row(mesh.tets(t, k)).transpose();
+    }
 
-    static constexpr int face_corners[4][3]
-        = { { 1, 2, 3 }, { 0, 2, 3 }, { 0, 1, 3 }, { 0, 1, 2 } };
+    // Barycentric coordinates of x in tet t.
+    Vec4 barycentric_in(const TetMesh& mesh, Index t, const Vec3& x)
+    {
+        return tet_barycentric(tet_corner(mesh, t, 0), tet_corner(mesh, t, 1),
+            tet_corner(mesh, t, 2), tet_corner(mesh, t, 3), x);
+    }
+
+    // A grid over the tets' bounding boxes, for inside queries.
+    BoxGrid tet_box_grid(const TetMesh& mesh)
+    {
+        std::vector<Box3> tet_boxes(static_cast<size_t>(mesh.num_tets()));
+        for (Index t = 0; t < mesh.num_tets(); ++t)
+            for (int k = 0; k < 4; ++k)
+                tet_boxes[static_cast<size_t>(t)].extend(tet_corner(mesh, t, k));
+        return BoxGrid(tet_boxes);
+    }
+
+    /// A face of one tet only: its sorted vertices, the tet, and the face's index in the tet.
     struct BoundaryFace {
         std::array<int, 3> key;
         int tet;
         int face;
     };
-    std::vector<BoundaryFace> faces;
-    faces.reserve(static_cast<size_t>(4 * mesh.num_tets()));
-    for (Index t = 0; t < mesh.num_tets(); ++t)
-        for (int f = 0; f < 4; ++f) {
-            std::array<int, 3> key;
-            for (int k = 0; k < 3; ++k)
-                key[static_cast<size_t>(k)] = mesh.tets(t, face_corners[f][k]);
-            std::sort(key.begin(), key.end());
-            faces.push_back({ key, static_cast<int>(t), f });
+
+    // The mesh's boundary faces (faces of one tet only), sorted by key.
+    std::vector<BoundaryFace> boundary_faces(const TetMesh& mesh)
+    {
+        static constexpr int face_corners[4][3]
+            = { { 1, 2, 3 }, { 0, 2, 3 }, { 0, 1, 3 }, { 0, 1, 2 } };
+        std::vector<BoundaryFace> faces;
+        faces.reserve(static_cast<size_t>(4 * mesh.num_tets()));
+        for (Index t = 0; t < mesh.num_tets(); ++t)
+            for (int f = 0; f < 4; ++f) {
+                std::array<int, 3> key;
+                for (int k = 0; k < 3; ++k)
+                    key[static_cast<size_t>(k)] = mesh.tets(t, face_corners[f][k]);
+                std::sort(key.begin(), key.end());
+                faces.push_back({ key, static_cast<int>(t), f });
+            }
+        std::sort(faces.begin(), faces.end(), [](const BoundaryFace& a, const BoundaryFace& b) {
+            return a.key < b.key || (a.key == b.key && a.tet < b.tet);
+        });
+        std::vector<BoundaryFace> boundary;
+        for (size_t i = 0; i < faces.size();) {
+            size_t j = i;
+            while (j < faces.size() && faces[j].key == faces[i].key)
+                ++j;
+            if (j - i == 1)
+                boundary.push_back(faces[i]);
+            i = j;
         }
-    std::sort(faces.begin(), faces.end(), [](const BoundaryFace& a, const BoundaryFace& b) {
-        return a.key < b.key || (a.key == b.key && a.tet < b.tet);
-    });
-    std::vector<BoundaryFace> boundary;
-    for (size_t i = 0; i < faces.size();) {
-        size_t j = i;
-        while (j < faces.size() && faces[j].key == faces[i].key)
-            ++j;
-        if (j - i == 1)
-            boundary.push_back(faces[i]);
-        i = j;
+        return boundary;
     }
-    std::vector<Box3> face_boxes(boundary.size());
-    for (size_t b = 0; b < boundary.size(); ++b)
-        for (int k = 0; k < 3; ++k)
-            face_boxes[b].extend(
-                mesh.positions.row(boundary[b].key[static_cast<size_t>(k)]).transpose());
-    const BoxGrid face_grid(face_boxes);
 
-    const Index num_points = points.rows();
-    TetEmbedding result;
-    result.tet.resize(num_points);
-    result.barycentric.resize(num_points, 4);
-    std::vector<double> outside_distance(static_cast<size_t>(num_points), 0.0);
+    // A grid over the boundary faces' bounding boxes, for outside queries.
+    BoxGrid face_box_grid(const TetMesh& mesh, const std::vector<BoundaryFace>& boundary)
+    {
+        std::vector<Box3> face_boxes(boundary.size());
+        for (size_t b = 0; b < boundary.size(); ++b)
+            for (int k = 0; k < 3; ++k)
+                face_boxes[b].extend(
+                    mesh.positions.row(boundary[b].key[static_cast<size_t>(k)]).transpose());
+        return BoxGrid(face_boxes);
+    }
 
-    tbb::parallel_for(Index(0), num_points, [&](Index p) {
-        const Vec3 x = points.row(p).transpose();
-        // Inside: the tet of the point's cell where the smallest barycentric is largest.
+    // Inside: the tet of x's cell where the smallest barycentric is largest (ties: the lower
+    // tet), or -1 if no tet holds x to the inside tolerance.
+    int enclosing_tet(const TetMesh& mesh, const BoxGrid& tet_grid, const Vec3& x, Vec4& bary_out)
+    {
         int best = -1;
         double best_min = -std::numeric_limits<double>::infinity();
         Vec4 best_bary = Vec4::Zero();
         tet_grid.visit_shell(x, 0, [&](int t) {
-            const Vec4 bary
-                = tet_barycentric(corner(t, 0), corner(t, 1), corner(t, 2), corner(t, 3), x);
+            const Vec4 bary = barycentric_in(mesh, t, x);
             if (bary.minCoeff() > best_min || (bary.minCoeff() == best_min && t < best)) {
                 best_min = bary.minCoeff();
                 best = t;
@@ -146,12 +163,17 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
         });
         const double inside_tolerance = -1e-12;
         if (best >= 0 && best_min >= inside_tolerance) {
-            result.tet(p) = best;
-            result.barycentric.row(p) = best_bary.transpose();
-            return;
+            bary_out = best_bary;
+            return best;
         }
-        // Outside: the tet of the nearest boundary face, searching shells of cells outward
-        // until the next shell is farther than the best distance found.
+        return -1;
+    }
+
+    // Outside: the nearest boundary face to x (ties: the lower face), searching shells of cells
+    // outward until the next shell is farther than the best distance found; writes the distance.
+    int nearest_boundary_face(const TetMesh& mesh, const std::vector<BoundaryFace>& boundary,
+        const BoxGrid& face_grid, const Vec3& x, double& distance)
+    {
         double best_distance = std::numeric_limits<double>::infinity();
         int best_face = -1;
         for (Index ring = 0; ring <= face_grid.max_ring(); ++ring) {
@@ -170,12 +192,44 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
             if (best_face >= 0 && best_distance <= ring * face_grid.cell_size())
                 break;
         }
-        best = boundary[static_cast<size_t>(best_face)].tet;
+        distance = best_distance;
+        return best_face;
+    }
+
+} // namespace
+
+TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& points)
+{
+    if (mesh.num_tets() == 0)
+        throw_error("cannot embed points: the tet mesh has no tets");
+
+    // Inside queries: a grid over the tets. Outside queries: a grid over the boundary faces
+    // (faces of one tet only), since the nearest point of the mesh lies on its boundary.
+    const BoxGrid tet_grid = tet_box_grid(mesh);
+    const std::vector<BoundaryFace> boundary = boundary_faces(mesh);
+    const BoxGrid face_grid = face_box_grid(mesh, boundary);
+
+    const Index num_points = points.rows();
+    TetEmbedding result;
+    result.tet.resize(num_points);
+    result.barycentric.resize(num_points, 4);
+    std::vector<double> outside_distance(static_cast<size_t>(num_points), 0.0);
+
+    tbb::parallel_for(Index(0), num_points, [&](Index p) {
+        const Vec3 x = points.row(p).transpose();
+        Vec4 bary;
+        const int inside = enclosing_tet(mesh, tet_grid, x, bary);
+        if (inside >= 0) {
+            result.tet(p) = inside;
+            result.barycentric.row(p) = bary.transpose();
+            return;
+        }
+        double distance = 0.0;
+        const int face = nearest_boundary_face(mesh, boundary, face_grid, x, distance);
+        const int best = boundary[static_cast<size_t>(face)].tet;
         result.tet(p) = best;
-        result.barycentric.row(p)
-            = tet_barycentric(corner(best, 0), corner(best, 1), corner(best, 2), corner(best, 3), x)
-                  .transpose();
-        outside_distance[static_cast<size_t>(p)] = std::max(best_distance, 1e-300);
+        result.barycentric.row(p) = barycentric_in(mesh, best, x).transpose();
+        outside_distance[static_cast<size_t>(p)] = std::max(distance, 1e-300);
     });
     for (double d : outside_distance)
         if (d > 0) {

@@ -127,108 +127,128 @@ namespace {
         }
     }
 
-} // namespace
-
-MedialComplex inner_voronoi_complex(const Eigen::Ref<const MatX3>& samples,
-    const Eigen::Ref<const MatX4i>& tets, const SurfaceDistance& surface, double min_depth)
-{
-    const Index num_tets = tets.rows();
-    const Box3& bounds = surface.bounds();
-    const double diagonal = bounds.diagonal().norm();
+    /// Step 1's result, per tet: its circumcenter, its depth inside the surface (-1 where the
+    /// circumcenter is not finite or outside the bounds) and whether that depth is > min_depth.
+    struct Circumcenters {
+        MatX3 centers;
+        VecX depth;
+        std::vector<char> inner;
+    };
 
     // 1. Circumcenters, and their depth inside the surface (-signed distance).
-    MatX3 centers(num_tets, 3);
-    VecX depth = VecX::Constant(num_tets, -1.0);
-    tbb::parallel_for(Index(0), num_tets, [&](Index t) {
-        const Vec3 center = circumcenter(samples.row(tets(t, 0)), samples.row(tets(t, 1)),
-            samples.row(tets(t, 2)), samples.row(tets(t, 3)));
-        centers.row(t) = center.transpose();
-        if (center.allFinite() && bounds.contains(center))
-            depth(t) = -surface.signed_distance(center);
-    });
-    std::vector<char> inner(static_cast<std::size_t>(num_tets));
-    for (Index t = 0; t < num_tets; ++t)
-        inner[static_cast<std::size_t>(t)] = depth(t) > min_depth;
-
-    // 2. Merge face-adjacent inner tets with (numerically) the same circumcenter.
-    const MatX4i neighbors = face_neighbors(tets);
-    UnionFind classes(num_tets);
-    const double merge_distance = 1e-9 * diagonal;
-    for (Index t = 0; t < num_tets; ++t)
-        for (int k = 0; k < 4; ++k) {
-            const int u = neighbors(t, k);
-            if (u > t && inner[static_cast<std::size_t>(t)] && inner[static_cast<std::size_t>(u)]
-                && (centers.row(t) - centers.row(u)).norm() <= merge_distance)
-                classes.unite(t, u);
-        }
-    std::vector<int> sphere_of(static_cast<std::size_t>(num_tets), -1);
-    int num_spheres = 0;
-    for (Index t = 0; t < num_tets; ++t)
-        if (inner[static_cast<std::size_t>(t)] && classes.find(t) == t)
-            sphere_of[static_cast<std::size_t>(t)] = num_spheres++;
-    for (Index t = 0; t < num_tets; ++t)
-        if (inner[static_cast<std::size_t>(t)])
-            sphere_of[static_cast<std::size_t>(t)]
-                = sphere_of[static_cast<std::size_t>(classes.find(t))];
-
-    MedialComplex complex;
-    complex.centers.resize(num_spheres, 3);
-    complex.radii.resize(num_spheres);
-    std::vector<std::vector<int>> contacts(static_cast<std::size_t>(num_spheres));
-    for (Index t = 0; t < num_tets; ++t) {
-        const int s = sphere_of[static_cast<std::size_t>(t)];
-        if (s < 0)
-            continue;
-        if (classes.find(t) == t) {
-            complex.centers.row(s) = centers.row(t);
-            complex.radii(s) = depth(t);
-        }
-        for (int k = 0; k < 4; ++k)
-            contacts[static_cast<std::size_t>(s)].push_back(tets(t, k));
+    Circumcenters tet_circumcenters(const Eigen::Ref<const MatX3>& samples,
+        const Eigen::Ref<const MatX4i>& tets, const SurfaceDistance& surface, double min_depth)
+    {
+        const Index num_tets = tets.rows();
+        const Box3& bounds = surface.bounds();
+        Circumcenters result { MatX3(num_tets, 3), VecX::Constant(num_tets, -1.0),
+            std::vector<char>(static_cast<std::size_t>(num_tets)) };
+        MatX3& centers = result.centers;
+        VecX& depth = result.depth;
+        tbb::parallel_for(Index(0), num_tets, [&](Index t) {
+            const Vec3 center = circumcenter(samples.row(tets(t, 0)), samples.row(tets(t, 1)),
+                samples.row(tets(t, 2)), samples.row(tets(t, 3)));
+            centers.row(t) = center.transpose();
+            if (center.allFinite() && bounds.contains(center))
+                depth(t) = -surface.signed_distance(center);
+        });
+        for (Index t = 0; t < num_tets; ++t)
+            result.inner[static_cast<std::size_t>(t)] = depth(t) > min_depth;
+        return result;
     }
-    complex.contact_offsets.assign(1, 0);
-    for (std::vector<int>& list : contacts) {
-        std::sort(list.begin(), list.end());
-        list.erase(std::unique(list.begin(), list.end()), list.end());
-        complex.contact_samples.insert(complex.contact_samples.end(), list.begin(), list.end());
-        complex.contact_offsets.push_back(static_cast<int>(complex.contact_samples.size()));
+
+    /// Step 2's result: inner tets of one class share a circumcenter, and each class is a
+    /// sphere; sphere_of[t] is tet t's sphere, -1 for an outer tet.
+    struct TetSpheres {
+        UnionFind classes;
+        std::vector<int> sphere_of;
+        int count = 0;
+    };
+
+    // 2. Merges face-adjacent inner tets with (numerically) the same circumcenter and numbers
+    // the classes in the order of their first tet.
+    TetSpheres merge_tets(
+        const Circumcenters& tet_centers, const MatX4i& neighbors, double merge_distance)
+    {
+        const Index num_tets = neighbors.rows();
+        const std::vector<char>& inner = tet_centers.inner;
+        const MatX3& centers = tet_centers.centers;
+        TetSpheres spheres { UnionFind(num_tets),
+            std::vector<int>(static_cast<std::size_t>(num_tets), -1) };
+        UnionFind& classes = spheres.classes;
+        std::vector<int>& sphere_of = spheres.sphere_of;
+        for (Index t = 0; t < num_tets; ++t)
+            for (int k = 0; k < 4; ++k) {
+                const int u = neighbors(t, k);
+                if (u > t && inner[static_cast<std::size_t>(t)]
+                    && inner[static_cast<std::size_t>(u)]
+                    && (centers.row(t) - centers.row(u)).norm() <= merge_distance)
+                    classes.unite(t, u);
+            }
+        for (Index t = 0; t < num_tets; ++t)
+            if (inner[static_cast<std::size_t>(t)] && classes.find(t) == t)
+                sphere_of[static_cast<std::size_t>(t)] = spheres.count++;
+        for (Index t = 0; t < num_tets; ++t)
+            if (inner[static_cast<std::size_t>(t)])
+                sphere_of[static_cast<std::size_t>(t)]
+                    = sphere_of[static_cast<std::size_t>(classes.find(t))];
+        return spheres;
+    }
+
+    // The spheres (center and depth of their class's first tet) and their contact samples (the
+    // corners of their tets, sorted, without repeats).
+    void add_spheres(const Eigen::Ref<const MatX4i>& tets, const Circumcenters& tet_centers,
+        TetSpheres& spheres, MedialComplex& complex)
+    {
+        const Index num_tets = tets.rows();
+        const int num_spheres = spheres.count;
+        complex.centers.resize(num_spheres, 3);
+        complex.radii.resize(num_spheres);
+        std::vector<std::vector<int>> contacts(static_cast<std::size_t>(num_spheres));
+        for (Index t = 0; t < num_tets; ++t) {
+            const int s = spheres.sphere_of[static_cast<std::size_t>(t)];
+            if (s < 0)
+                continue;
+            if (spheres.classes.find(t) == t) {
+                complex.centers.row(s) = tet_centers.centers.row(t);
+                complex.radii(s) = tet_centers.depth(t);
+            }
+            for (int k = 0; k < 4; ++k)
+                contacts[static_cast<std::size_t>(s)].push_back(tets(t, k));
+        }
+        complex.contact_offsets.assign(1, 0);
+        for (std::vector<int>& list : contacts) {
+            std::sort(list.begin(), list.end());
+            list.erase(std::unique(list.begin(), list.end()), list.end());
+            complex.contact_samples.insert(complex.contact_samples.end(), list.begin(), list.end());
+            complex.contact_offsets.push_back(static_cast<int>(complex.contact_samples.size()));
+        }
     }
 
     // 3. Voronoi edges: inner tets sharing a face.
-    for (Index t = 0; t < num_tets; ++t)
-        for (int k = 0; k < 4; ++k) {
-            const int u = neighbors(t, k);
-            if (u <= t)
-                continue;
-            const int a = sphere_of[static_cast<std::size_t>(t)];
-            const int b = sphere_of[static_cast<std::size_t>(u)];
-            if (a >= 0 && b >= 0 && a != b)
-                complex.edges.push_back({ std::min(a, b), std::max(a, b) });
-        }
-
-    // 4. Voronoi faces: the ring of tets around each Delaunay edge, when all are inner.
-    std::vector<std::pair<std::uint64_t, int>> edge_tets;
-    edge_tets.reserve(static_cast<std::size_t>(6 * num_tets));
-    for (Index t = 0; t < num_tets; ++t) {
-        if (!inner[static_cast<std::size_t>(t)])
-            continue;
-        for (int i = 0; i < 4; ++i)
-            for (int j = i + 1; j < 4; ++j)
-                edge_tets.emplace_back(pair_key(tets(t, i), tets(t, j)), static_cast<int>(t));
+    void add_voronoi_edges(
+        const MatX4i& neighbors, const std::vector<int>& sphere_of, MedialComplex& complex)
+    {
+        for (Index t = 0; t < neighbors.rows(); ++t)
+            for (int k = 0; k < 4; ++k) {
+                const int u = neighbors(t, k);
+                if (u <= t)
+                    continue;
+                const int a = sphere_of[static_cast<std::size_t>(t)];
+                const int b = sphere_of[static_cast<std::size_t>(u)];
+                if (a >= 0 && b >= 0 && a != b)
+                    complex.edges.push_back({ std::min(a, b), std::max(a, b) });
+            }
     }
-    std::sort(edge_tets.begin(), edge_tets.end());
-    std::vector<int> ring;
-    for (std::size_t begin = 0; begin < edge_tets.size();) {
-        std::size_t end = begin;
-        while (end < edge_tets.size() && edge_tets[end].first == edge_tets[begin].first)
-            ++end;
-        const int a = static_cast<int>(edge_tets[begin].first >> 32);
-        const int b = static_cast<int>(edge_tets[begin].first & 0xffffffffu);
-        const std::size_t count = end - begin;
-        begin = end;
-        // Walk around the edge (a, b) through the faces that contain it.
+
+    // Walks around the Delaunay edge (a, b) from tet `start` through the faces that contain it,
+    // writing the spheres met to `ring`; true if the walk closes through `count` inner tets
+    // (false for an outer tet, or the hull, on the ring).
+    bool walk_edge_ring(const Eigen::Ref<const MatX4i>& tets, const MatX4i& neighbors,
+        const std::vector<char>& inner, const std::vector<int>& sphere_of, int a, int b, int start,
+        std::size_t count, std::vector<int>& ring)
+    {
         ring.clear();
-        const int start = edge_tets[end - count].second;
         int previous = -1, current = start;
         bool closed = false;
         for (std::size_t step = 0; step <= count; ++step) {
@@ -251,9 +271,13 @@ MedialComplex inner_voronoi_complex(const Eigen::Ref<const MatX3>& samples,
                 break;
             }
         }
-        if (!closed || ring.size() != count)
-            continue; // an outer tet, or the hull, on the ring
-        // Drop repeats of merged spheres, then fan out the convex polygon.
+        return closed && ring.size() == count;
+    }
+
+    // Drops repeats of merged spheres from a closed ring, then fans out the convex polygon into
+    // triangles and their edges.
+    void add_ring_triangles(std::vector<int>& ring, MedialComplex& complex)
+    {
         ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
         while (ring.size() > 1 && ring.front() == ring.back())
             ring.pop_back();
@@ -268,13 +292,65 @@ MedialComplex inner_voronoi_complex(const Eigen::Ref<const MatX3>& samples,
             complex.edges.push_back({ triangle[0], triangle[2] });
         }
     }
-    bridge_components(complex, tets, neighbors, inner, sphere_of, surface, min_depth);
-    std::sort(complex.edges.begin(), complex.edges.end());
-    complex.edges.erase(
-        std::unique(complex.edges.begin(), complex.edges.end()), complex.edges.end());
-    std::sort(complex.triangles.begin(), complex.triangles.end());
-    complex.triangles.erase(
-        std::unique(complex.triangles.begin(), complex.triangles.end()), complex.triangles.end());
+
+    // 4. Voronoi faces: the ring of tets around each Delaunay edge, when all are inner.
+    void add_voronoi_faces(const Eigen::Ref<const MatX4i>& tets, const MatX4i& neighbors,
+        const std::vector<char>& inner, const std::vector<int>& sphere_of, MedialComplex& complex)
+    {
+        const Index num_tets = tets.rows();
+        std::vector<std::pair<std::uint64_t, int>> edge_tets;
+        edge_tets.reserve(static_cast<std::size_t>(6 * num_tets));
+        for (Index t = 0; t < num_tets; ++t) {
+            if (!inner[static_cast<std::size_t>(t)])
+                continue;
+            for (int i = 0; i < 4; ++i)
+                for (int j = i + 1; j < 4; ++j)
+                    edge_tets.emplace_back(pair_key(tets(t, i), tets(t, j)), static_cast<int>(t));
+        }
+        std::sort(edge_tets.begin(), edge_tets.end());
+        std::vector<int> ring;
+        for (std::size_t begin = 0; begin < edge_tets.size();) {
+            std::size_t end = begin;
+            while (end < edge_tets.size() && edge_tets[end].first == edge_tets[begin].first)
+                ++end;
+            const int a = static_cast<int>(edge_tets[begin].first >> 32);
+            const int b = static_cast<int>(edge_tets[begin].first & 0xffffffffu);
+            const std::size_t count = end - begin;
+            const int start = edge_tets[begin].second;
+            begin = end;
+            if (walk_edge_ring(tets, neighbors, inner, sphere_of, a, b, start, count, ring))
+                add_ring_triangles(ring, complex);
+        }
+    }
+
+    // Sorts the complex's edges and triangles and drops repeats.
+    void sort_unique(MedialComplex& complex)
+    {
+        std::sort(complex.edges.begin(), complex.edges.end());
+        complex.edges.erase(
+            std::unique(complex.edges.begin(), complex.edges.end()), complex.edges.end());
+        std::sort(complex.triangles.begin(), complex.triangles.end());
+        complex.triangles.erase(std::unique(complex.triangles.begin(), complex.triangles.end()),
+            complex.triangles.end());
+    }
+
+} // namespace
+
+MedialComplex inner_voronoi_complex(const Eigen::Ref<const MatX3>& samples,
+    const Eigen::Ref<const MatX4i>& tets, const SurfaceDistance& surface, double min_depth)
+{
+    const double diagonal = surface.bounds().diagonal().norm();
+    const Circumcenters tet_centers = tet_circumcenters(samples, tets, surface, min_depth);
+    const MatX4i neighbors = face_neighbors(tets);
+    TetSpheres spheres = merge_tets(tet_centers, neighbors, 1e-9 * diagonal);
+
+    MedialComplex complex;
+    add_spheres(tets, tet_centers, spheres, complex);
+    add_voronoi_edges(neighbors, spheres.sphere_of, complex);
+    add_voronoi_faces(tets, neighbors, tet_centers.inner, spheres.sphere_of, complex);
+    bridge_components(
+        complex, tets, neighbors, tet_centers.inner, spheres.sphere_of, surface, min_depth);
+    sort_unique(complex);
     return complex;
 }
 

@@ -140,6 +140,126 @@ namespace {
         return mesh;
     }
 
+    // Rejects meshing options, bounds or a function that Mesh_3 cannot work with.
+    void check_implicit_inputs(const std::function<double(const Vec3&)>& signed_distance,
+        const Box3& bounds, const ImplicitSurfaceOptions& options)
+    {
+        check_positive(options.facet_size, "facet_size");
+        check_positive(options.facet_distance, "facet_distance");
+        check_facet_angle(options.facet_angle);
+        check_positive(options.relative_error_bound, "relative_error_bound");
+        if (bounds.isEmpty() || !bounds.min().allFinite() || !bounds.max().allFinite())
+            throw_error("mesh_implicit_surface: the bounding box is empty or not finite");
+        if (!signed_distance)
+            throw_error("mesh_implicit_surface: no signed distance function given");
+    }
+
+    // The initial surface points: the domain's crossings of the sign changes found on a grid of
+    // spacing facet_size (and from the interior points), thinned to one per facet size.
+    std::vector<SeededImplicitDomain::Seed> implicit_seeds(const ImplicitDomain& implicit_domain,
+        const std::function<double(const Vec3&)>& signed_distance, const Box3& bounds,
+        const ImplicitSurfaceOptions& options)
+    {
+        std::vector<SeededImplicitDomain::Seed> crossings;
+        const auto intersects = implicit_domain.do_intersect_surface_object();
+        const auto intersection = implicit_domain.construct_intersection_object();
+        for (const SignChange& change : find_sign_changes(
+                 signed_distance, bounds, options.facet_size, options.interior_points)) {
+            const Kernel::Segment_3 segment(
+                Point(change.inside.x(), change.inside.y(), change.inside.z()),
+                Point(change.outside.x(), change.outside.y(), change.outside.z()));
+            const auto patch = intersects(segment);
+            if (!patch)
+                continue;
+            const auto crossing = intersection(segment);
+            crossings.emplace_back(
+                std::get<0>(crossing), implicit_domain.index_from_surface_patch_index(*patch));
+        }
+        // Seeds closer than a facet size would force tiny facets and needless refinement.
+        MatX3 crossing_points(static_cast<Index>(crossings.size()), 3);
+        for (std::size_t i = 0; i < crossings.size(); ++i) {
+            const Point& p = crossings[i].first;
+            crossing_points.row(static_cast<Index>(i)) << p.x(), p.y(), p.z();
+        }
+        std::vector<SeededImplicitDomain::Seed> seeds;
+        for (const int kept : thin_out_points(crossing_points, options.facet_size))
+            seeds.push_back(crossings[static_cast<std::size_t>(kept)]);
+        if (seeds.empty())
+            throw_error("mesh_implicit_surface: the function has no zero crossing on a grid of "
+                        "spacing {} over the bounds nor from the interior points (is it negative "
+                        "somewhere inside and positive on the bounds?)",
+                options.facet_size);
+        return seeds;
+    }
+
+    // The complex's facets as a surface, each oriented outward: away from its inside cell, or
+    // along the function's gradient where both or neither cell is inside.
+    SurfaceMesh complex_surface(
+        const ImplicitC3t3& c3t3, const std::function<double(const Vec3&)>& signed_distance)
+    {
+        std::unordered_map<const void*, int> vertex_index;
+        std::vector<Vec3> points;
+        std::vector<Eigen::RowVector3i> faces;
+        faces.reserve(c3t3.number_of_facets_in_complex());
+        Index oriented_by_gradient = 0;
+        for (auto facet = c3t3.facets_in_complex_begin(); facet != c3t3.facets_in_complex_end();
+             ++facet) {
+            auto cell = facet->first;
+            int opposite = facet->second;
+            const auto mirror = c3t3.triangulation().mirror_facet(*facet);
+            const bool inside_first = c3t3.is_in_complex(cell);
+            const bool inside_second = c3t3.is_in_complex(mirror.first);
+            if (!inside_first && inside_second) {
+                cell = mirror.first;
+                opposite = mirror.second;
+            }
+            Eigen::RowVector3i face;
+            Point corners[3];
+            for (int k = 0; k < 3; ++k) {
+                const auto vertex = cell->vertex((opposite + 1 + k) & 3);
+                corners[k] = vertex->point().point();
+                const auto [it, inserted]
+                    = vertex_index.emplace(&*vertex, static_cast<int>(points.size()));
+                if (inserted)
+                    points.emplace_back(corners[k].x(), corners[k].y(), corners[k].z());
+                face(k) = it->second;
+            }
+            bool outward;
+            if (inside_first != inside_second) {
+                // Outward: the inside cell's opposite vertex lies on the negative side.
+                const Point& apex = cell->vertex(opposite)->point().point();
+                outward
+                    = CGAL::orientation(corners[0], corners[1], corners[2], apex) == CGAL::NEGATIVE;
+            } else {
+                // Both or neither cell labelled inside: orient along the function's gradient.
+                ++oriented_by_gradient;
+                const Vec3 a = points[static_cast<std::size_t>(face(0))];
+                const Vec3 b = points[static_cast<std::size_t>(face(1))];
+                const Vec3 c = points[static_cast<std::size_t>(face(2))];
+                const Vec3 centroid = (a + b + c) / 3.0;
+                const double h = 1e-3 * (b - a).norm() + 1e-12;
+                const Vec3 normal = (b - a).cross(c - a);
+                outward = signed_distance(centroid + h * normal.normalized())
+                    > signed_distance(centroid - h * normal.normalized());
+            }
+            if (!outward)
+                std::swap(face(1), face(2));
+            faces.push_back(face);
+        }
+        if (oriented_by_gradient > 0)
+            logger().debug("mesh_implicit_surface: {} facets oriented by the function's gradient",
+                oriented_by_gradient);
+
+        SurfaceMesh surface;
+        surface.positions.resize(static_cast<Index>(points.size()), 3);
+        for (std::size_t v = 0; v < points.size(); ++v)
+            surface.positions.row(static_cast<Index>(v)) = points[v].transpose();
+        surface.faces.resize(static_cast<Index>(faces.size()), 3);
+        for (std::size_t f = 0; f < faces.size(); ++f)
+            surface.faces.row(static_cast<Index>(f)) = faces[f];
+        return surface;
+    }
+
 } // namespace
 
 TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& options)
@@ -231,14 +351,7 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
 SurfaceMesh mesh_implicit_surface(const std::function<double(const Vec3&)>& signed_distance,
     const Box3& bounds, const ImplicitSurfaceOptions& options)
 {
-    check_positive(options.facet_size, "facet_size");
-    check_positive(options.facet_distance, "facet_distance");
-    check_facet_angle(options.facet_angle);
-    check_positive(options.relative_error_bound, "relative_error_bound");
-    if (bounds.isEmpty() || !bounds.min().allFinite() || !bounds.max().allFinite())
-        throw_error("mesh_implicit_surface: the bounding box is empty or not finite");
-    if (!signed_distance)
-        throw_error("mesh_implicit_surface: no signed distance function given");
+    check_implicit_inputs(signed_distance, bounds, options);
 
     Timer timer;
     const ImplicitFunction function
@@ -251,37 +364,8 @@ SurfaceMesh mesh_implicit_surface(const std::function<double(const Vec3&)>& sign
     const ImplicitDomain implicit_domain
         = ImplicitDomain::create_implicit_mesh_domain(function, cuboid,
             params::relative_error_bound = options.relative_error_bound, params::p_rng = &random);
-
-    std::vector<SeededImplicitDomain::Seed> crossings;
-    const auto intersects = implicit_domain.do_intersect_surface_object();
-    const auto intersection = implicit_domain.construct_intersection_object();
-    for (const SignChange& change :
-        find_sign_changes(signed_distance, bounds, options.facet_size, options.interior_points)) {
-        const Kernel::Segment_3 segment(
-            Point(change.inside.x(), change.inside.y(), change.inside.z()),
-            Point(change.outside.x(), change.outside.y(), change.outside.z()));
-        const auto patch = intersects(segment);
-        if (!patch)
-            continue;
-        const auto crossing = intersection(segment);
-        crossings.emplace_back(
-            std::get<0>(crossing), implicit_domain.index_from_surface_patch_index(*patch));
-    }
-    // Seeds closer than a facet size would force tiny facets and needless refinement.
-    MatX3 crossing_points(static_cast<Index>(crossings.size()), 3);
-    for (std::size_t i = 0; i < crossings.size(); ++i) {
-        const Point& p = crossings[i].first;
-        crossing_points.row(static_cast<Index>(i)) << p.x(), p.y(), p.z();
-    }
-    std::vector<SeededImplicitDomain::Seed> seeds;
-    for (const int kept : thin_out_points(crossing_points, options.facet_size))
-        seeds.push_back(crossings[static_cast<std::size_t>(kept)]);
-    if (seeds.empty())
-        throw_error("mesh_implicit_surface: the function has no zero crossing on a grid of "
-                    "spacing {} over the bounds nor from the interior points (is it negative "
-                    "somewhere inside and positive on the bounds?)",
-            options.facet_size);
-    const SeededImplicitDomain domain(implicit_domain, std::move(seeds));
+    const SeededImplicitDomain domain(
+        implicit_domain, implicit_seeds(implicit_domain, signed_distance, bounds, options));
     // Facet criteria only: the cells are a by-product, only the surface is kept.
     const ImplicitCriteria criteria(params::facet_angle = options.facet_angle,
         params::facet_size = options.facet_size, params::facet_distance = options.facet_distance);
@@ -293,66 +377,7 @@ SurfaceMesh mesh_implicit_surface(const std::function<double(const Vec3&)>& sign
                     "bounds (is the function negative somewhere inside and positive on the "
                     "bounds?)");
 
-    std::unordered_map<const void*, int> vertex_index;
-    std::vector<Vec3> points;
-    std::vector<Eigen::RowVector3i> faces;
-    faces.reserve(c3t3.number_of_facets_in_complex());
-    Index oriented_by_gradient = 0;
-    for (auto facet = c3t3.facets_in_complex_begin(); facet != c3t3.facets_in_complex_end();
-         ++facet) {
-        auto cell = facet->first;
-        int opposite = facet->second;
-        const auto mirror = c3t3.triangulation().mirror_facet(*facet);
-        const bool inside_first = c3t3.is_in_complex(cell);
-        const bool inside_second = c3t3.is_in_complex(mirror.first);
-        if (!inside_first && inside_second) {
-            cell = mirror.first;
-            opposite = mirror.second;
-        }
-        Eigen::RowVector3i face;
-        Point corners[3];
-        for (int k = 0; k < 3; ++k) {
-            const auto vertex = cell->vertex((opposite + 1 + k) & 3);
-            corners[k] = vertex->point().point();
-            const auto [it, inserted]
-                = vertex_index.emplace(&*vertex, static_cast<int>(points.size()));
-            if (inserted)
-                points.emplace_back(corners[k].x(), corners[k].y(), corners[k].z());
-            face(k) = it->second;
-        }
-        bool outward;
-        if (inside_first != inside_second) {
-            // Outward: the inside cell's opposite vertex lies on the negative side.
-            const Point& apex = cell->vertex(opposite)->point().point();
-            outward = CGAL::orientation(corners[0], corners[1], corners[2], apex) == CGAL::NEGATIVE;
-        } else {
-            // Both or neither cell labelled inside: orient along the function's gradient.
-            ++oriented_by_gradient;
-            const Vec3 a = points[static_cast<std::size_t>(face(0))];
-            const Vec3 b = points[static_cast<std::size_t>(face(1))];
-            const Vec3 c = points[static_cast<std::size_t>(face(2))];
-            const Vec3 centroid = (a + b + c) / 3.0;
-            const double h = 1e-3 * (b - a).norm() + 1e-12;
-            const Vec3 normal = (b - a).cross(c - a);
-            outward = signed_distance(centroid + h * normal.normalized())
-                > signed_distance(centroid - h * normal.normalized());
-        }
-        if (!outward)
-            std::swap(face(1), face(2));
-        faces.push_back(face);
-    }
-    if (oriented_by_gradient > 0)
-        logger().debug("mesh_implicit_surface: {} facets oriented by the function's gradient",
-            oriented_by_gradient);
-
-    SurfaceMesh surface;
-    surface.positions.resize(static_cast<Index>(points.size()), 3);
-    for (std::size_t v = 0; v < points.size(); ++v)
-        surface.positions.row(static_cast<Index>(v)) = points[v].transpose();
-    surface.faces.resize(static_cast<Index>(faces.size()), 3);
-    for (std::size_t f = 0; f < faces.size(); ++f)
-        surface.faces.row(static_cast<Index>(f)) = faces[f];
-
+    SurfaceMesh surface = complex_surface(c3t3, signed_distance);
     const double volume = surface_signed_volume(surface);
     if (volume < 0.0) {
         logger().warn(

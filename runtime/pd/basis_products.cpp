@@ -10,35 +10,15 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "common/handle_monomials.hpp"
+
 namespace mat {
 
 namespace {
 
-    constexpr int linear_terms = 4;
-    constexpr int quadratic_terms = 10;
-
-    /// The monomials of y in the basis's term order (preprocess/basis/handle_basis.hpp).
-    inline void monomials(double y0, double y1, double y2, double (&p)[quadratic_terms])
-    {
-        p[0] = 1.0;
-        p[1] = y0;
-        p[2] = y1;
-        p[3] = y2;
-        p[4] = y0 * y0;
-        p[5] = y1 * y1;
-        p[6] = y2 * y2;
-        p[7] = y0 * y1;
-        p[8] = y1 * y2;
-        p[9] = y0 * y2;
-    }
-
     /// Entries of B that the handle form reproduces to this relative accuracy (the bake
     /// divides by s_j where the runtime multiplies by 1 / s_j).
     constexpr double form_tolerance = 1e-12;
-
-    /// The quadratic terms' index pairs (a, b): p_(4 + k) = y_a y_b.
-    constexpr int pair_a[6] = { 0, 1, 2, 0, 1, 0 };
-    constexpr int pair_b[6] = { 0, 1, 2, 1, 2, 2 };
 
     /// acc[0 .. 12) = sum_e weights[e] rows[Stride handles[e] + 0 .. 12), rows 64-byte aligned
     /// with Stride 16 (acc too): one 8-wide and one 4-wide multiply-add per entry with AVX-512.
@@ -112,7 +92,7 @@ BasisProducts::BasisProducts(const Model& model)
     m_handles.resize(m);
     for (Index j = 0; j < m; ++j) {
         const int terms = offsets(j + 1) - offsets(j);
-        if ((terms != linear_terms && terms != quadratic_terms) || !(scales(j) > 0.0))
+        if ((terms != linear_handle_terms && terms != quadratic_handle_terms) || !(scales(j) > 0.0))
             return;
         Handle& h = m_handles[j];
         for (int d = 0; d < 3; ++d)
@@ -137,8 +117,8 @@ BasisProducts::BasisProducts(const Model& model)
             const Handle& h = m_handles[j];
             if (indices[e] != h.offset || e + h.terms > indptr[i + 1])
                 return;
-            double p[quadratic_terms];
-            monomials((rest[3 * i] - h.center[0]) * h.inverse_scale,
+            double p[quadratic_handle_terms];
+            handle_monomials((rest[3 * i] - h.center[0]) * h.inverse_scale,
                 (rest[3 * i + 1] - h.center[1]) * h.inverse_scale,
                 (rest[3 * i + 2] - h.center[2]) * h.inverse_scale, p);
             const double w = values[e];
@@ -173,11 +153,11 @@ BasisProducts::BasisProducts(const Model& model)
     m_node_quadratic.assign(n, 0);
     for (Index i = 0; i < n; ++i)
         for (int e = m_node_offsets[i]; e < m_node_offsets[i + 1]; ++e)
-            if (m_handles[m_node_handles[e]].terms == quadratic_terms)
+            if (m_handles[m_node_handles[e]].terms == quadratic_handle_terms)
                 m_node_quadratic[i] = 1;
     m_affine_terms.assign(affine_stride * m, 0.0);
     m_any_quadratic = std::any_of(m_handles.begin(), m_handles.end(),
-        [](const Handle& h) { return h.terms == quadratic_terms; });
+        [](const Handle& h) { return h.terms == quadratic_handle_terms; });
     m_chunk_rows.assign(static_cast<std::size_t>(transpose_chunks) * affine_stride * m, 0.0);
     m_chunk_quadratic_rows.assign(
         m_any_quadratic ? static_cast<std::size_t>(transpose_chunks) * quadratic_stride * m : 0,
@@ -275,10 +255,11 @@ template <typename Row> void BasisProducts::transpose_times_rows(const Row& row,
                 double terms2[quadratic_stride];
                 for (int k = 0; k < 6; ++k)
                     for (int t = 0; t < 3; ++t)
-                        terms2[3 * k + t] = di[pair_a[k]] * di[pair_b[k]] * yi[t];
+                        terms2[3 * k + t] = di[quadratic_monomial_first[k]]
+                            * di[quadratic_monomial_second[k]] * yi[t];
                 for (int e = begin; e < end; ++e) {
                     const int j = m_node_handles[e];
-                    if (m_handles[j].terms != quadratic_terms)
+                    if (m_handles[j].terms != quadratic_handle_terms)
                         continue;
                     double* row = rows2 + quadratic_stride * j;
                     for (int v = 0; v < quadratic_stride; ++v)
@@ -296,7 +277,7 @@ template <typename Row> void BasisProducts::transpose_times_rows(const Row& row,
                     = m_chunk_rows.data() + (static_cast<std::size_t>(c) * m + j) * affine_stride;
                 for (int v = 0; v < 12; ++v)
                     sums[v] += row[v];
-                if (h.terms != quadratic_terms)
+                if (h.terms != quadratic_handle_terms)
                     continue;
                 const double* row2 = m_chunk_quadratic_rows.data()
                     + (static_cast<std::size_t>(c) * m + j) * quadratic_stride;
@@ -312,10 +293,10 @@ template <typename Row> void BasisProducts::transpose_times_rows(const Row& row,
                 o[t] = s0;
                 for (int a = 0; a < 3; ++a)
                     o[3 * (1 + a) + t] = sigma * (sums[3 + 3 * a + t] - delta[a] * s0);
-                if (h.terms != quadratic_terms)
+                if (h.terms != quadratic_handle_terms)
                     continue;
                 for (int k = 0; k < 6; ++k) {
-                    const int a = pair_a[k], b = pair_b[k];
+                    const int a = quadratic_monomial_first[k], b = quadratic_monomial_second[k];
                     o[3 * (4 + k) + t] = sigma * sigma
                         * (sums2[3 * k + t] - delta[a] * sums[3 + 3 * b + t]
                             - delta[b] * sums[3 + 3 * a + t] + delta[a] * delta[b] * s0);
@@ -374,10 +355,10 @@ void BasisProducts::reconstruct(const double* q, double* x)
                 gj[3 + 3 * a + c] = sigma * qa;
                 constant -= sigma * delta[a] * qa;
             }
-            if (h.terms == quadratic_terms)
+            if (h.terms == quadratic_handle_terms)
                 for (int k = 0; k < 6; ++k) {
                     // sigma^2 (d_a - delta_a)(d_b - delta_b) q_(4 + k).
-                    const int a = pair_a[k], b = pair_b[k];
+                    const int a = quadratic_monomial_first[k], b = quadratic_monomial_second[k];
                     const double qk = sigma * sigma * qh[3 * (4 + k) + c];
                     g2j[3 * k + c] = qk;
                     gj[3 + 3 * a + c] -= delta[b] * qk;
@@ -404,14 +385,14 @@ void BasisProducts::reconstruct(const double* q, double* x)
                     double acc2[quadratic_stride] = {};
                     for (int e = begin; e < end; ++e) {
                         const int j = m_node_handles[e];
-                        if (m_handles[j].terms != quadratic_terms)
+                        if (m_handles[j].terms != quadratic_handle_terms)
                             continue;
                         const double w = m_node_weights[e];
                         for (int v = 0; v < quadratic_stride; ++v)
                             acc2[v] += w * g2[quadratic_stride * j + v];
                     }
-                    double mono[quadratic_terms];
-                    monomials(di[0], di[1], di[2], mono);
+                    double mono[quadratic_handle_terms];
+                    handle_monomials(di[0], di[1], di[2], mono);
                     for (int c = 0; c < 3; ++c)
                         for (int k = 0; k < 6; ++k)
                             out[c] += acc2[3 * k + c] * mono[4 + k];

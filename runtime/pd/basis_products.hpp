@@ -4,9 +4,10 @@
 //
 // A bake's B has handle form (preprocess/basis/handle_basis.hpp): handle j owns the columns
 // [off_j, off_j+1), and B(i, off_j + t) = w_ij p_t(y_ij) with y_ij = (X_i - c_j) / s_j and p_t
-// the t-th monomial (1, y1, y2, y3 for a linear handle, plus the six quadratic ones). Then one
-// weight per (node, handle) stands for 4 or 10 entries. Both products work in the monomials of
-// d_i = X_i - o (o the rest centroid), where a handle's polynomial is a few coefficients:
+// the t-th monomial (common/handle_monomials.hpp: 1, y1, y2, y3 for a linear handle, plus the six
+// quadratic ones). Then one weight per (node, handle) stands for 4 or 10 entries. Both products
+// work in the monomials of d_i = X_i - o (o the rest centroid), where a handle's polynomial is a
+// few coefficients:
 // B^T y forms each node's terms [y_i, d_i (x) y_i] once and adds them, weighted, into its
 // handles' sums (then one shift per handle back to its own monomials); X + B q rewrites each
 // handle's polynomial in d once per call and sums, per node, its handles' coefficients. Each
