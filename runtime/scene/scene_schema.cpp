@@ -1,6 +1,7 @@
 #include "runtime/scene/scene_schema.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -111,13 +112,12 @@ namespace {
         return fmt::format("[{}, {}] must satisfy 0 <= min <= 1 <= max", limits[0], limits[1]);
     }
 
-    std::vector<KeySpec> make_table()
+    /// The top-level keys.
+    std::vector<KeySpec> root_keys()
     {
         using S = Section;
         using T = Type;
-        const Json zero = Json::array({ 0, 0, 0 });
-        return {
-            // Top level.
+        return { // Top level.
             section_key(S::root, "time", S::time, &Scene::time).set_doc("time stepping"),
             value_key(S::root, "gravity", T::vec3, &Scene::gravity)
                 .set_default(Json::array({ 0, -9.81, 0 }))
@@ -130,9 +130,16 @@ namespace {
             array_key(S::root, "colliders", S::collider, &Scene::colliders)
                 .set_doc("static colliders"),
             section_key(S::root, "output", S::output, &Scene::output)
-                .set_doc("what is written, and how often"),
+                .set_doc("what is written, and how often")
+        };
+    }
 
-            // time
+    /// time: the time stepping.
+    std::vector<KeySpec> time_keys()
+    {
+        using S = Section;
+        using T = Type;
+        return { // time
             value_key(S::time, "dt", T::number, &TimeSettings::dt)
                 .set_default(1.0 / 60.0, "1/60")
                 .above(0)
@@ -153,9 +160,16 @@ namespace {
             value_key(S::time, "iterations", T::integer, &TimeSettings::iterations)
                 .set_default(10)
                 .at_least(1)
-                .set_doc("PD local/global iterations per step"),
+                .set_doc("PD local/global iterations per step")
+        };
+    }
 
-            // solver
+    /// solver: the solver, collision and sleeping settings.
+    std::vector<KeySpec> solver_keys()
+    {
+        using S = Section;
+        using T = Type;
+        return { // solver
             value_key(S::solver, "damping", T::number, &SolverSettings::damping)
                 .set_default(0)
                 .at_least(0)
@@ -223,9 +237,17 @@ namespace {
                          "diagonal entry of the system matrix (full-space pins use 1e8): stiff "
                          "pins on a reduced body freeze every handle whose weights reach into "
                          "the pinned region; at 1 a stiff cantilever's error against full-space "
-                         "PD is 1.8% RMS instead of 5.3% (16 handles)"),
+                         "PD is 1.8% RMS instead of 5.3% (16 handles)")
+        };
+    }
 
-            // objects[]
+    /// objects[]: each object and its material.
+    std::vector<KeySpec> object_keys()
+    {
+        using S = Section;
+        using T = Type;
+        const Json zero = Json::array({ 0, 0, 0 });
+        return { // objects[]
             value_key(S::object, "name", T::string, &ObjectSettings::name)
                 .set_default_doc("object0, object1, ...")
                 .set_check(check_not_empty)
@@ -281,9 +303,17 @@ namespace {
                 .set_doc("mass density, kg/m^3"),
             value_key(S::material, "strain_limits", T::interval, &MaterialSettings::strain_limits)
                 .set_check(check_strain_limits)
-                .set_doc("[min, max] bounds on the principal stretches, 0 <= min <= 1 <= max"),
+                .set_doc("[min, max] bounds on the principal stretches, 0 <= min <= 1 <= max")
+        };
+    }
 
-            // objects[].pins[]: exactly one of box, sphere, nodes.
+    /// objects[].pins[] and objects[].keyframes[]: pinned regions and prescribed motion.
+    std::vector<KeySpec> motion_keys()
+    {
+        using S = Section;
+        using T = Type;
+        const Json zero = Json::array({ 0, 0, 0 });
+        return { // objects[].pins[]: exactly one of box, sphere, nodes.
             section_key(S::pin, "box", S::box, &PinRegion::box)
                 .set_default(nullptr)
                 .set_doc("the nodes in a box; exactly one of box, sphere, nodes"),
@@ -338,9 +368,17 @@ namespace {
             value_key(
                 S::object_keyframe, "rotation_degrees", T::vec3, &PinKeyframe::rotation_degrees)
                 .set_default(zero)
-                .set_doc("XYZ Euler angles, degrees, about the placed centre of mass"),
+                .set_doc("XYZ Euler angles, degrees, about the placed centre of mass")
+        };
+    }
 
-            // colliders[]
+    /// colliders[] and output.
+    std::vector<KeySpec> output_keys()
+    {
+        using S = Section;
+        using T = Type;
+        const Json zero = Json::array({ 0, 0, 0 });
+        return { // colliders[]
             value_key(S::collider, "type", T::string, &ColliderSettings::type)
                 .set_required()
                 .set_choices({ "plane" })
@@ -371,8 +409,21 @@ namespace {
             value_key(S::output, "fields", T::strings, &OutputSettings::fields)
                 .set_default(Json::array())
                 .set_choices({ "velocity", "stretch" })
-                .set_doc("extra per-vertex fields written to vtu and h5"),
+                .set_doc("extra per-vertex fields written to vtu and h5")
         };
+    }
+
+    /// Every key of the scene file, section by section, in the reference's order.
+    std::vector<KeySpec> make_table()
+    {
+        std::vector<KeySpec> table;
+        for (std::vector<KeySpec> (*section)() :
+            { root_keys, time_keys, solver_keys, object_keys, motion_keys, output_keys }) {
+            std::vector<KeySpec> keys = section();
+            table.insert(table.end(), std::make_move_iterator(keys.begin()),
+                std::make_move_iterator(keys.end()));
+        }
+        return table;
     }
 
     std::string format_number(double value)
