@@ -107,7 +107,7 @@ StaticSolution solve_static(const BakeData& bake, const Box3& box, const LoadCas
     State next;
     StaticSolution solution;
     for (int step = 0; step < options.max_steps; ++step) {
-        solver->step(model, state, next);
+        solver->step(state, next);
         solution.last_change
             = (next.positions - state.positions).rowwise().norm().maxCoeff() / diagonal;
         // The velocity a static solve carries over is noise: start each step at rest.

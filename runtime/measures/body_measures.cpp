@@ -7,8 +7,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "runtime/pd/elastic_term.hpp"
 #include "runtime/pd/local_step.hpp"
-#include "runtime/pd/projection_kernel.hpp"
 
 namespace mat {
 
@@ -62,7 +62,7 @@ BodyMeasures measure_body(
                     if (weights[k] == 0.0 && k > 0)
                         continue;
                     RotationBlock warm;
-                    project_block(f, params[k], target, warm);
+                    project_elastic_block(f, params[k], target, warm);
                     for (int l = 0; l < count; ++l) {
                         Mat3 p;
                         for (int i = 0; i < 9; ++i)

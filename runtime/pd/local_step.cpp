@@ -14,7 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
-#include "runtime/pd/projection_kernel.hpp"
+#include "runtime/pd/elastic_term.hpp"
 
 namespace mat {
 
@@ -376,7 +376,7 @@ void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& posit
                     f.m[3 * r + c][l] = d0 * block.dm_inverse[c][l]
                         + d1 * block.dm_inverse[3 + c][l] + d2 * block.dm_inverse[6 + c][l];
             }
-        project_block(f, params, target, m_warm[b]);
+        project_elastic_block(f, params, target, m_warm[b]);
         // Corner r + 1's share q(r, c) = vol (Dm^-1 target^T)(r, c) = vol sum_j Dm^-1(r, j)
         // target(c, j), corner 0's minus their sum, in SIMD.
         alignas(64) double share[4][3][lanes];

@@ -3,7 +3,7 @@
 // docs/method.md, section 3): every tet's deformation gradient is projected onto the strain
 // constraint (nearest rotation), the volume constraint (det F clamped) and the strain limit
 // (singular values clamped), and the projections are gathered into the global step's right-hand
-// side sum_e w_e G_e^T P_e^T. The step uses the vectorized kernel of projection_kernel.hpp;
+// side sum_e w_e G_e^T P_e^T. The step uses the vectorized kernel of elastic_term.hpp;
 // project_tet is the exact scalar reference it is tested against.
 
 #include <limits>
@@ -11,7 +11,7 @@
 
 #include "common/eigen_types.hpp"
 #include "runtime/model.hpp"
-#include "runtime/pd/projection_kernel.hpp"
+#include "runtime/pd/elastic_term.hpp"
 
 namespace mat {
 

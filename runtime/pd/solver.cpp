@@ -9,6 +9,7 @@
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/pd/hyper_reduced.hpp"
+#include "runtime/pd/pin_term.hpp"
 
 namespace mat {
 
@@ -138,10 +139,8 @@ void PdSolver::set_pin_targets(const Eigen::Ref<const MatX3>& targets)
     m_pin_targets = targets;
 }
 
-void PdSolver::step(const Model& model, const State& in, State& out)
+void PdSolver::step(const State& in, State& out)
 {
-    if (&model != m_model)
-        throw_error("solver: step() was given another model than the solver was made for");
     if (!m_own_contacts) {
         m_own_contacts = std::make_unique<ContactStage>(1);
         m_own_state.resize(1);
@@ -174,7 +173,6 @@ void PdSolver::begin_step(const State& in, State& out)
     const double h = model.time_step();
     const double inv_h2 = 1.0 / (h * h);
     const VecX& masses = model.masses();
-    const auto& pins = model.pinned_nodes();
     m_report = StepReport {};
 
     // s = x_n + h v_n + h^2 g  (Bouaziz et al. 2014, eq. 9 with f_ext = M g).
@@ -191,8 +189,7 @@ void PdSolver::begin_step(const State& in, State& out)
         for (Index i = range.begin(); i != range.end(); ++i)
             m_rhs_base.row(i) = (masses(i) * inv_h2) * m_inertia.row(i);
     });
-    for (std::size_t p = 0; p < pins.size(); ++p)
-        m_rhs_base.row(pins[p]) += model.pin_weight() * m_pin_targets.row(static_cast<Index>(p));
+    add_pin_term(model, m_pin_targets, m_rhs_base);
     m_global->add_constant_terms(m_rhs_base);
     m_timings.rhs += timer.seconds();
 }

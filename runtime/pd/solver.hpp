@@ -120,9 +120,9 @@ public:
     PdSolver(PdSolver&&) = default;
     ~PdSolver();
 
-    /// One time step from `in` to `out` (n x 3 each; `out` is resized if needed, and may not be
-    /// `in`), with this body's ground contacts only. `model` must be the solver's model.
-    void step(const Model& model, const State& in, State& out);
+    /// One time step (the model's time step) from `in` to `out` (n x 3 each; `out` is resized if
+    /// needed, and may not be `in`), with this body's ground contacts only.
+    void step(const State& in, State& out);
 
     // The step in stages, for a driver that steps several bodies with one contact stage over
     // all of them (runtime/pd/contact_stage.hpp; Simulation::step):

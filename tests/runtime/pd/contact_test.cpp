@@ -174,7 +174,7 @@ namespace {
     {
         State next;
         for (int s = 0; s < steps; ++s) {
-            solver.step(model, state, next);
+            solver.step(state, next);
             std::swap(state, next);
             if (deepest)
                 *deepest = std::max(*deepest, solver.last_report().max_penetration);
@@ -246,7 +246,7 @@ namespace {
         }
         double deepest = 0.0;
         for (int s = 0; s < 60; ++s) {
-            plane_solver.step(cube.model, a, next);
+            plane_solver.step(a, next);
             std::swap(a, next);
             step_with_contacts(node_solver, stage, b, next, contacts);
             std::swap(b, next);

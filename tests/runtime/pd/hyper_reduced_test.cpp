@@ -30,7 +30,7 @@ namespace {
     }
     State run(PdSolver& solver, const Model& model, const State& start, int steps)
     {
-        return test::run_steps(solver, model, start, steps);
+        return test::run_steps(solver, start, steps);
     }
 
     /// max_i |a_i - b_i| over the size of `rest`'s bounding box.

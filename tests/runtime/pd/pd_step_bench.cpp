@@ -84,7 +84,7 @@ StepFigures measure(PdSolver& solver, const Model& model, const State& start, in
     const SolverTimings before = solver.timings();
     for (int s = 0; s < steps; ++s) {
         Timer timer;
-        solver.step(model, a, b);
+        solver.step(a, b);
         times.push_back(1e3 * timer.seconds());
         std::swap(a, b);
     }

@@ -33,12 +33,11 @@ inline MatX3 twist_velocities(const MatX3& positions)
 }
 
 /// `steps` steps of pd_dt from `state`.
-template <typename Solver>
-State run_steps(Solver& solver, const Model& model, State state, int steps)
+inline State run_steps(PdSolver& solver, State state, int steps)
 {
     State next;
     for (int s = 0; s < steps; ++s) {
-        solver.step(model, state, next);
+        solver.step(state, next);
         std::swap(state, next);
     }
     return state;

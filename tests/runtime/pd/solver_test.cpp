@@ -48,8 +48,7 @@ namespace {
         PdSolver reduced = semi_reduced_solver(model, options);
         PdSolver full = full_solver(model, options);
         const State rest = State::at_rest(model);
-        for (const State& end :
-            { run_steps(reduced, model, rest, 5), run_steps(full, model, rest, 5) }) {
+        for (const State& end : { run_steps(reduced, rest, 5), run_steps(full, rest, 5) }) {
             EXPECT_LT((end.positions - rest.positions).cwiseAbs().maxCoeff(), 1e-10);
             EXPECT_LT(end.velocities.cwiseAbs().maxCoeff(), 1e-10);
         }
@@ -72,9 +71,9 @@ namespace {
             // v_{n+1} = v_n + h g, x_{n+1} = x_n + h v_{n+1}.
             v += dt * options.gravity.transpose();
             shift += dt * v;
-            reduced.step(model, a, next);
+            reduced.step(a, next);
             std::swap(a, next);
-            full.step(model, b, next);
+            full.step(b, next);
             std::swap(b, next);
             for (const State* state : { &a, &b }) {
                 MatX3 expected = start.positions;
@@ -109,8 +108,7 @@ namespace {
         PdSolver reduced = semi_reduced_solver(model);
         PdSolver full = full_solver(model);
         const State rest = State::at_rest(model);
-        for (const State& end :
-            { run_steps(reduced, model, rest, 20), run_steps(full, model, rest, 20) }) {
+        for (const State& end : { run_steps(reduced, rest, 20), run_steps(full, rest, 20) }) {
             const double sag = (end.positions - rest.positions).rowwise().norm().maxCoeff();
             EXPECT_GT(sag, 1e-3); // the free end moved
             for (const int i : options.pinned_nodes)
@@ -145,7 +143,7 @@ namespace {
                 const Eigen::RowVector3d offset(0.0, 0.01 * s, 0.004 * s);
                 targets = model.pin_targets().rowwise() + offset;
                 solver->set_pin_targets(targets);
-                solver->step(model, state, next);
+                solver->step(state, next);
                 std::swap(state, next);
                 for (std::size_t p = 0; p < options.pinned_nodes.size(); ++p)
                     EXPECT_LT((state.positions.row(options.pinned_nodes[p])
@@ -178,8 +176,8 @@ namespace {
             PdSolver full = full_solver(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
-            const State a = run_steps(reduced, model, start, 10);
-            const State b = run_steps(full, model, start, 10);
+            const State a = run_steps(reduced, start, 10);
+            const State b = run_steps(full, start, 10);
             EXPECT_LT(relative_difference(a.positions, b.positions, start.positions), 1e-8)
                 << "pinned " << pinned;
         }
@@ -210,8 +208,8 @@ namespace {
             PdSolver full = full_solver(model);
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
-            const State a = run_steps(reduced, model, start, 10);
-            const State b = run_steps(full, model, start, 10);
+            const State a = run_steps(reduced, start, 10);
+            const State b = run_steps(full, start, 10);
             errors.push_back(relative_difference(a.positions, b.positions, start.positions));
         }
         const std::string trace = fmt::format(
@@ -236,9 +234,9 @@ namespace {
         PdSolver a = semi_reduced_solver(model, exact);
         PdSolver b = semi_reduced_solver(model, fast);
         PdSolver reference = full_solver(model, exact);
-        const State end_exact = run_steps(a, model, start, 10);
-        const State end_fast = run_steps(b, model, start, 10);
-        const State end_full = run_steps(reference, model, start, 10);
+        const State end_exact = run_steps(a, start, 10);
+        const State end_fast = run_steps(b, start, 10);
+        const State end_full = run_steps(reference, start, 10);
         const double difference
             = relative_difference(end_fast.positions, end_exact.positions, start.positions);
         const double reduction
@@ -261,8 +259,8 @@ namespace {
             set_threads(threads);
             PdSolver reduced = semi_reduced_solver(model);
             PdSolver full = full_solver(model);
-            reduced_ends.push_back(run_steps(reduced, model, start, 5));
-            full_ends.push_back(run_steps(full, model, start, 5));
+            reduced_ends.push_back(run_steps(reduced, start, 5));
+            full_ends.push_back(run_steps(full, start, 5));
         }
         set_threads(0);
         EXPECT_EQ(reduced_ends[0].positions, reduced_ends[1].positions);
@@ -284,10 +282,8 @@ namespace {
         const Model model(bake, Material {}, model_options());
         PdSolver reduced = semi_reduced_solver(model);
         State rest = State::at_rest(model), out;
-        const Model other(bake, Material {}, model_options());
-        EXPECT_THROW(reduced.step(other, rest, out), Error); // not the solver's model
         rest.positions.conservativeResize(3, 3);
-        EXPECT_THROW(reduced.step(model, rest, out), Error);
+        EXPECT_THROW(reduced.step(rest, out), Error);
     }
 
 } // namespace

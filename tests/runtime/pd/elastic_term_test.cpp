@@ -13,8 +13,8 @@
 
 #include "common/error.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/elastic_term.hpp"
 #include "runtime/pd/local_step.hpp"
-#include "runtime/pd/projection_kernel.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
 
 namespace mat {
@@ -117,13 +117,13 @@ namespace {
                 for (int i = 0; i < 9; ++i)
                     for (int l = 0; l < lanes; ++l)
                         nearby.m[i][l] += 1e-3 * normal(rng);
-                project_block(nearby, params[0], ignored, warm[b]);
+                project_elastic_block(nearby, params[0], ignored, warm[b]);
             }
         }
         for (int b = 0; b < blocks; ++b)
             for (int k = 0; k < 3; ++k) {
                 RotationBlock v = warm[b];
-                project_block(in[b], params[k], out[k][b], v);
+                project_elastic_block(in[b], params[k], out[k][b], v);
             }
 
         std::vector<Errors> errors(num_kinds);
@@ -161,7 +161,7 @@ namespace {
     // rotations and never farther from F than the reference beyond 2e-6, close to the reference
     // where the projection is unique (its error is about the float stage's angle error, 1e-5,
     // times the singular values' spread), from a cold and a warm start.
-    TEST(ProjectionKernel, FastPathIsCloseToTheReference)
+    TEST(ElasticTerm, FastPathIsCloseToTheReference)
     {
         std::mt19937 rng(99);
         for (const Kind kind : { near_rotation, large_stretch, inverted, repeated, random }) {
@@ -195,7 +195,7 @@ namespace {
 
     // ... and exact, like the exact path, for a rotation times a uniform stretch (a body at rest or
     // in rigid motion), whatever the warm start.
-    TEST(ProjectionKernel, FastPathIsExactForScaledRotations)
+    TEST(ElasticTerm, FastPathIsExactForScaledRotations)
     {
         std::mt19937 rng(5);
         ProjectionParams params;
@@ -216,7 +216,7 @@ namespace {
                 for (int i = 0; i < 9; ++i)
                     f.m[i][l] = scale * r[l](i / 3, i % 3);
             }
-            project_block(f, params, target, warm);
+            project_elastic_block(f, params, target, warm);
             // det (s R) = s^3, clamped to [0.99, 1.01]: P_vol = cbrt(clamp) R, P_rot = R.
             const double det = scale * scale * scale;
             const double volume = det == 1.0 ? 1.0 : std::cbrt(std::clamp(det, 0.99, 1.01));
@@ -227,7 +227,7 @@ namespace {
         }
     }
 
-    TEST(ProjectionKernel, MatchesTheScalarReference)
+    TEST(ElasticTerm, MatchesTheScalarReference)
     {
         std::mt19937 rng(2024);
         std::vector<Mat3> fs;
@@ -273,7 +273,7 @@ namespace {
         }
     }
 
-    TEST(ProjectionKernel, AtRestEverythingIsTheIdentity)
+    TEST(ElasticTerm, AtRestEverythingIsTheIdentity)
     {
         MatBlock f, target;
         for (int l = 0; l < projection_lanes; ++l)
@@ -286,13 +286,13 @@ namespace {
         params.rotation_weight = 2.0;
         params.volume_weight = 3.0;
         params.limit_weight = 5.0;
-        project_block(f, params, target);
+        project_elastic_block(f, params, target);
         for (int l = 0; l < projection_lanes; ++l)
             for (int i = 0; i < 9; ++i)
                 EXPECT_NEAR(target.m[i][l], i % 4 == 0 ? 10.0 : 0.0, 1e-14);
     }
 
-    TEST(ProjectionKernel, StrainLimitWeightAndValidation)
+    TEST(ElasticTerm, StrainLimitWeightAndValidation)
     {
         const BakeData& bake = test::shipped_cube_bake();
         Material material;

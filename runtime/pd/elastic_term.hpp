@@ -1,5 +1,8 @@
 #pragma once
-// The local step's projections, vectorized across tets: blocks of `projection_lanes`
+// The elastic term of a tet, the local step's projection: corotated (nearest rotation) + volume
+// (det F clamped) + strain limits (singular values clamped), all from one SVD per tet, returned
+// as their weighted sum (docs/method.md, section 3). The pin term is apart
+// (runtime/pd/pin_term.hpp). Vectorized across tets: blocks of `projection_lanes`
 // deformation gradients in structure-of-arrays form, branch-free within a block (selects; the
 // iteration counts are per block), written as plain loops over lanes that the compiler turns into
 // SIMD code.
@@ -78,7 +81,7 @@ struct ProjectionParams {
     /// True: the exact decomposition (double Jacobi sweeps and QR: every projection to ~1e-11).
     /// False: the fast one (float eigenvectors, singular values and U in double from them: exact
     /// at rest and under rigid motion, otherwise accurate to about 1e-5 of the singular values'
-    /// spread; flat or collapsed tets still take the exact path). See project_block.
+    /// spread; flat or collapsed tets still take the exact path). See project_elastic_block.
     bool exact = true;
 };
 
@@ -87,13 +90,13 @@ struct ProjectionParams {
 /// limit projections are skipped for a block none of whose lanes needs them, and the sweep and
 /// Newton counts adapt per block (branches per block, never per lane: a lane's result depends
 /// on its neighbours only through how many converging iterations it gets).
-void project_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target);
+void project_elastic_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target);
 
 /// The same, with the Jacobi stage started from `warm` (read, then overwritten with this call's
 /// V): in a PD solve, F changes little between iterations and steps, and V not at all under
 /// rigid motion, so one sweep usually converges. The sweep counts adapt per block (more sweeps
 /// while some lane has not converged), so the accuracy does not depend on the warm start.
-void project_block(
+void project_elastic_block(
     const MatBlock& f, const ProjectionParams& params, MatBlock& target, RotationBlock& warm);
 
 } // namespace mat

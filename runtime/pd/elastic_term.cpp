@@ -1,4 +1,4 @@
-#include "runtime/pd/projection_kernel.hpp"
+#include "runtime/pd/elastic_term.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -634,13 +634,13 @@ namespace {
 
 } // namespace
 
-void project_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target)
+void project_elastic_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target)
 {
     RotationBlock warm;
-    project_block(f, params, target, warm);
+    project_elastic_block(f, params, target, warm);
 }
 
-void project_block(
+void project_elastic_block(
     const MatBlock& f, const ProjectionParams& params, MatBlock& target, RotationBlock& warm)
 {
     const double eps = params.volume_tolerance;
