@@ -45,11 +45,13 @@ public:
     /// Adds the output time spent after the last frame (closing files, the preview movie).
     void add_finish_seconds(double export_seconds, double preview_seconds);
 
+    /// Seconds spent so far writing files, previews and measuring (the end report's table).
     double export_seconds() const { return m_export_seconds; }
     double preview_seconds() const { return m_preview_seconds; }
     double measure_seconds() const { return m_measure_seconds; }
     /// The collision reports of all steps folded into one (see accumulate in run_stats.cpp).
     const CollisionReport& total_collision() const { return m_total_collision; }
+    /// The --check-collisions counts of all steps added up.
     const CollisionCheckCounts& total_check() const { return m_total_check; }
     /// Bodies asleep after a step, on average over the steps (0 before any step).
     double sleeping_mean() const;
