@@ -137,7 +137,7 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     body.surface.resize(body.model->surface().num_vertices(), 3);
     body.model->surface().positions(nodes, body.surface);
     const bool from_q = state.q != nullptr
-        && (m_settings.bounds != RadiusUpdate::bound || !m_settings.bounds_from_positions);
+        && (m_settings.bounds != RadiusUpdate::bound || !m_variants.bounds_from_positions);
     if (from_q) {
         body.bounds.update(*state.q, m_settings.bounds);
     } else {
@@ -217,7 +217,7 @@ void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states
     MAT_CHECK(states.size() == m_bodies.size(), "collision: {} states for {} bodies", states.size(),
         m_bodies.size());
     m_report = CollisionReport {};
-    if (!m_settings.enabled || m_bodies.empty())
+    if (m_bodies.empty())
         return;
     double diagonal = 0.0;
     for (const Body& body : m_bodies)
@@ -253,7 +253,7 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
         m_bodies.size());
     m_contacts.clear();
     m_intersecting.clear();
-    if (!m_settings.enabled || m_bodies.empty())
+    if (m_bodies.empty())
         return m_contacts;
     const double margin = m_margin;
 
@@ -268,7 +268,7 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
         for (std::size_t b = a + 1; b < n_bodies; ++b) {
             if (states[a].is_static && states[b].is_static)
                 continue;
-            if (m_settings.object_culling && !m_bodies[a].box.intersects(m_bodies[b].box))
+            if (m_variants.object_culling && !m_bodies[a].box.intersects(m_bodies[b].box))
                 continue;
             m_object_pair[a * n_bodies + b] = 1;
             m_hashed[a] = m_hashed[b] = 1;
@@ -300,7 +300,7 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
     // 3. Broad phase.
     if (m_items.empty()) {
         m_pairs.clear();
-    } else if (m_settings.all_pairs) {
+    } else if (m_variants.all_pairs) {
         m_pairs.clear();
         const int n = static_cast<int>(m_items.size());
         for (int i = 0; i < n; ++i)

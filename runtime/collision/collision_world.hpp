@@ -5,9 +5,9 @@
 //      increments from the node positions, which every solver has each step (on the benchmark's
 //      creatures in contact, the handle bound from q gives increments of 8% of the body's
 //      diagonal on average, the exact ones under 0.01%, and 15 times the primitive pairs; the
-//      exact update is also the cheaper one); the handle bound from q
-//      (`bounds_from_positions = false`) and the lazy update are kept for comparison; then the
-//      primitives are placed in the world;
+//      exact update is also the cheaper one); the lazy update and, for tests and benchmarks
+//      only, the handle bound from q (CollisionVariants::bounds_from_positions = false) are
+//      kept for comparison; then the primitives are placed in the world;
 //      a body that has not moved since the last step (a sleeping or static body,
 //      CollisionBodyState::reuse_bounds) keeps its bounds, surface and boxes: nothing is
 //      recomputed for it;
@@ -33,6 +33,9 @@
 // Contact acts on the surface the user sees: its vertices against the other body's (or, with
 // self collision, a non-adjacent part's) triangles, both carried by the tet nodes through the
 // surface embedding; friction acts on their relative motion.
+// Tests and benchmarks compare the pipeline with variants of it (testing all primitive pairs,
+// no object-level culling, the handle bound from q: collision_variants.hpp) set through
+// set_variants_for_comparison; the production pipeline always uses the defaults.
 
 #include <memory>
 #include <vector>
@@ -40,6 +43,7 @@
 #include "common/bake_data.hpp"
 #include "common/eigen_types.hpp"
 #include "runtime/body_model.hpp"
+#include "runtime/collision/collision_variants.hpp"
 #include "runtime/collision/medial_bounds.hpp"
 #include "runtime/collision/narrow_phase.hpp"
 #include "runtime/collision/primitive_pair.hpp"
@@ -55,21 +59,12 @@ namespace mat {
 inline constexpr double rest_near_factor = 2.0;
 
 struct CollisionSettings {
-    bool enabled = true;
     bool self = true; ///< self-collision between primitives that share no sphere
+    /// bound: with the exact per-vertex increments from the node positions (see
+    /// CollisionVariants::bounds_from_positions); lazy: radii unchanged.
     RadiusUpdate bounds = RadiusUpdate::bound;
-    /// With `bounds` = bound: the exact per-vertex increments from the node positions even when
-    /// the state has q (tighter and, once the pairs they save are counted, faster); false: the
-    /// handle bound from q when the state has it.
-    bool bounds_from_positions = true;
     double margin = 0.01; ///< contact candidate distance, relative to the largest body diagonal
     double friction = 0.3; ///< Coulomb coefficient between bodies
-    /// Exact primitive test on every pair instead of the spatial hash (the reference code's
-    /// broad phase; for benchmarks).
-    bool all_pairs = false;
-    /// Object-level culling (phase 2); false: every body is hashed and every pair of bodies
-    /// goes on (the result is the same; for tests and comparison).
-    bool object_culling = true;
 };
 
 /// What the last detect() found and how long each phase took.
@@ -95,7 +90,8 @@ struct CollisionReport {
 struct CollisionBodyState {
     const MatX3* nodes = nullptr; ///< n x 3 node positions, in the solver's coordinates
     /// k x 3 reduced coordinates with nodes = X + B q (semi-reduced solver), or null: then the
-    /// bounds are the exact per-vertex ones from the positions (see bounds_from_positions).
+    /// bounds are the exact per-vertex ones from the positions (as they are with q too, unless
+    /// CollisionVariants::bounds_from_positions is false).
     const MatX* q = nullptr;
     Mat3 rotation = Mat3::Identity(); ///< world = R x + t for solver coordinates x
     Vec3 translation = Vec3::Zero();
@@ -125,6 +121,10 @@ public:
         m_lookahead = lookahead;
         m_extra = extra;
     }
+
+    /// For tests and benchmarks: runs a variant of the pipeline to compare with (the production
+    /// pipeline always uses the defaults). Set before the first detect().
+    void set_variants_for_comparison(const CollisionVariants& variants) { m_variants = variants; }
 
     /// Adds a body (its collision data and surface embedding, kept shared). Bodies are numbered
     /// in order.
@@ -192,6 +192,7 @@ private:
     };
 
     CollisionSettings m_settings;
+    CollisionVariants m_variants; ///< the defaults except in tests and benchmarks
     std::vector<Body> m_bodies;
     std::vector<std::size_t> m_updated; ///< the bodies whose bounds this step recomputes
     void update_body(std::size_t b, const CollisionBodyState& state, double margin);

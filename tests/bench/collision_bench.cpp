@@ -122,12 +122,14 @@ int run(int argc, char** argv)
     }
     const auto make = [&](RadiusUpdate bounds, bool all_pairs, bool from_positions = true) {
         CollisionSettings settings;
-        settings.bounds_from_positions = from_positions;
         settings.self = scene.solver.self_collision;
         settings.margin = scene.solver.collision_margin;
         settings.bounds = bounds;
-        settings.all_pairs = all_pairs;
+        CollisionVariants variants;
+        variants.all_pairs = all_pairs;
+        variants.bounds_from_positions = from_positions;
         CollisionWorld world(settings);
+        world.set_variants_for_comparison(variants);
         for (const Body& body : bodies)
             world.add_body(body.model);
         return world;

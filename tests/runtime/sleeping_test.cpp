@@ -190,8 +190,10 @@ namespace {
         CollisionSettings settings;
         settings.self = false;
         CollisionWorld culled(settings);
-        settings.object_culling = false;
         CollisionWorld all(settings);
+        CollisionVariants no_culling;
+        no_culling.object_culling = false;
+        all.set_variants_for_comparison(no_culling);
         const auto model = BodyModel::from_bake(bake);
         for (std::size_t b = 0; b < nodes.size(); ++b) {
             culled.add_body(model);

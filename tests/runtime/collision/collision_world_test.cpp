@@ -49,9 +49,11 @@ namespace {
         }
     };
 
-    CollisionWorld make_world(const CollisionSettings& settings)
+    CollisionWorld make_world(
+        const CollisionSettings& settings, const CollisionVariants& variants = {})
     {
         CollisionWorld world(settings);
+        world.set_variants_for_comparison(variants);
         world.add_body(BodyModel::from_bake(creature_bake()));
         world.add_body(BodyModel::from_bake(creature_bake()));
         return world;
@@ -110,8 +112,9 @@ namespace {
         CollisionSettings settings;
         settings.self = true;
         CollisionWorld hashed = make_world(settings);
-        settings.all_pairs = true;
-        CollisionWorld all = make_world(settings);
+        CollisionVariants all_pairs;
+        all_pairs.all_pairs = true;
+        CollisionWorld all = make_world(settings, all_pairs);
         TwoCreatures scene;
         const auto contacts = hashed.detect(scene.states);
         const auto reference = all.detect(scene.states);
@@ -216,8 +219,9 @@ namespace {
         CollisionSettings settings;
         settings.self = false;
         CollisionWorld exact = make_world(settings);
-        settings.bounds_from_positions = false;
-        CollisionWorld from_q = make_world(settings);
+        CollisionVariants handle_bound;
+        handle_bound.bounds_from_positions = false;
+        CollisionWorld from_q = make_world(settings, handle_bound);
         exact.detect(states);
         from_q.detect(states);
 
