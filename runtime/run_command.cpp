@@ -138,8 +138,9 @@ namespace {
                 options.reference, options.output + "/trajectory.h5", same_error))
             throw_error("--reference {}: this run would overwrite it (choose another -o)",
                 options.reference);
-        if (std::find(output.formats.begin(), output.formats.end(), "h5") == output.formats.end())
-            output.formats.push_back("h5");
+        if (std::find(output.formats.begin(), output.formats.end(), OutputFormat::h5)
+            == output.formats.end())
+            output.formats.push_back(OutputFormat::h5);
         return reference;
     }
 

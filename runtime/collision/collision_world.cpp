@@ -259,6 +259,31 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
 
     // 2. Object level: the pairs of bodies that go on, and the bodies to hash.
     Timer timer;
+    select_object_pairs(states);
+    // 3. Broad phase.
+    broad_phase();
+    m_report.hash_seconds = timer.seconds();
+    // 4. Exact primitive tests.
+    timer.restart();
+    test_primitive_pairs(states);
+    m_report.primitive_seconds = timer.seconds();
+
+    // 5. Narrow phase.
+    timer.restart();
+    narrow_phase(states, margin);
+    m_report.triangle_seconds = timer.seconds();
+
+    // 6. Contacts.
+    timer.restart();
+    respond(states);
+    m_report.response_seconds = timer.seconds();
+    return m_contacts;
+}
+
+// Phase 2: the pairs of bodies whose boxes meet, one of them dynamic (or every pair without
+// object culling), and the bodies to hash: those in such a pair, or awake with self collision.
+void CollisionWorld::select_object_pairs(const std::vector<CollisionBodyState>& states)
+{
     const std::size_t n_bodies = m_bodies.size();
     m_hashed.assign(n_bodies, 0);
     m_object_pair.assign(n_bodies * n_bodies, 0);
@@ -287,17 +312,11 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
         m_primitives.insert(m_primitives.end(), body.primitives.begin(), body.primitives.end());
         m_balls.insert(m_balls.end(), body.balls.begin(), body.balls.end());
     }
-    // Whether two items' bodies may collide: the same awake body with self-collision on, or
-    // an object pair that goes on.
-    const auto bodies_collide = [&](int a, int b) {
-        if (a == b)
-            return m_settings.self && !states[static_cast<std::size_t>(a)].is_static;
-        const auto [lo, hi] = std::minmax(a, b);
-        return m_object_pair[static_cast<std::size_t>(lo) * n_bodies + static_cast<std::size_t>(hi)]
-            != 0;
-    };
+}
 
-    // 3. Broad phase.
+// Phase 3: the spatial hash's candidate pairs over the hashed bodies' primitives (or every pair).
+void CollisionWorld::broad_phase()
+{
     if (m_items.empty()) {
         m_pairs.clear();
     } else if (m_variants.all_pairs) {
@@ -313,10 +332,23 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
         m_hash.pairs(m_pairs);
     }
     m_report.primitive_candidates = static_cast<int>(m_pairs.size());
-    m_report.hash_seconds = timer.seconds();
+}
 
-    // 4. Exact primitive tests, in parallel; kept in candidate order.
-    timer.restart();
+// Phase 4: the exact primitive test on the candidates whose bodies may collide, in parallel; the
+// colliding pairs kept in candidate order.
+void CollisionWorld::test_primitive_pairs(const std::vector<CollisionBodyState>& states)
+{
+    const std::size_t n_bodies = m_bodies.size();
+    // Whether two items' bodies may collide: the same awake body with self-collision on, or
+    // an object pair that goes on.
+    const auto bodies_collide = [&](int a, int b) {
+        if (a == b)
+            return m_settings.self && !states[static_cast<std::size_t>(a)].is_static;
+        const auto [lo, hi] = std::minmax(a, b);
+        return m_object_pair[static_cast<std::size_t>(lo) * n_bodies + static_cast<std::size_t>(hi)]
+            != 0;
+    };
+
     m_hit.assign(m_pairs.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_pairs.size(), 32),
         [&](const tbb::blocked_range<std::size_t>& range) {
@@ -339,18 +371,6 @@ const BodyContacts& CollisionWorld::find_contacts(const std::vector<CollisionBod
         if (m_hit[k])
             m_colliding.push_back(m_pairs[k]);
     m_report.primitive_pairs = static_cast<int>(m_colliding.size());
-    m_report.primitive_seconds = timer.seconds();
-
-    // 5. Narrow phase.
-    timer.restart();
-    narrow_phase(states, margin);
-    m_report.triangle_seconds = timer.seconds();
-
-    // 6. Contacts.
-    timer.restart();
-    respond(states);
-    m_report.response_seconds = timer.seconds();
-    return m_contacts;
 }
 
 void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states, double margin)

@@ -196,6 +196,9 @@ private:
     std::vector<Body> m_bodies;
     std::vector<std::size_t> m_updated; ///< the bodies whose bounds this step recomputes
     void update_body(std::size_t b, const CollisionBodyState& state, double margin);
+    void select_object_pairs(const std::vector<CollisionBodyState>& states);
+    void broad_phase();
+    void test_primitive_pairs(const std::vector<CollisionBodyState>& states);
     void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
     void respond(const std::vector<CollisionBodyState>& states);
     /// Body b's faces near each vertex at rest, within `radius` (self collision skips them).

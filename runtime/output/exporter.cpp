@@ -1,5 +1,7 @@
 #include "runtime/output/exporter.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "common/error.hpp"
@@ -11,26 +13,15 @@ Exporter::Exporter(const Simulation& simulation, const OutputSettings& output,
     std::string directory, const std::string& run_json)
     : m_directory(std::move(directory))
 {
-    for (const std::string& format : output.formats) {
-        if (format == "obj")
-            m_obj = true;
-        else if (format == "ply")
-            m_ply = true;
-        else if (format == "vtu")
-            m_vtu = true;
-        else if (format == "h5")
-            m_h5 = true;
-        else
-            throw_error("output: unknown format '{}'", format);
-    }
-    for (const std::string& field : output.fields) {
-        if (field == "velocity")
-            m_velocity = true;
-        else if (field == "stretch")
-            m_stretch = true;
-        else
-            throw_error("output: unknown field '{}'", field);
-    }
+    const auto has = [](const auto& list, auto item) {
+        return std::find(list.begin(), list.end(), item) != list.end();
+    };
+    m_obj = has(output.formats, OutputFormat::obj);
+    m_ply = has(output.formats, OutputFormat::ply);
+    m_vtu = has(output.formats, OutputFormat::vtu);
+    m_h5 = has(output.formats, OutputFormat::h5);
+    m_velocity = has(output.fields, OutputField::velocity);
+    m_stretch = has(output.fields, OutputField::stretch);
     const auto& bodies = simulation.bodies();
     for (const Body& body : bodies) {
         m_surface.emplace_back(body.model->surface().num_vertices(), 3);

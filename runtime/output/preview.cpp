@@ -250,7 +250,7 @@ PreviewWriter::PreviewWriter(
     for (const ColliderSettings& collider : scene.colliders) {
         const Vec3 n = collider.normal.normalized();
         const double height = n.dot(m_centre - collider.point);
-        if (collider.type != "plane" || !(height > 0.0) || height > 2.0 * m_diagonal)
+        if (collider.type != ColliderType::plane || !(height > 0.0) || height > 2.0 * m_diagonal)
             continue;
         for (int corner = 0; corner < 8; ++corner) {
             const Vec3 p = objects.corner(static_cast<Box3::CornerType>(corner));
@@ -270,7 +270,7 @@ void PreviewWriter::write_frame(int frame, const Simulation& simulation)
 {
     m_image.clear(background_color);
     for (const ColliderSettings& collider : simulation.scene().colliders) {
-        if (collider.type != "plane")
+        if (collider.type != ColliderType::plane)
             continue;
         const Vec3 n = collider.normal.normalized();
         const Vec3 foot = m_centre - n.dot(m_centre - collider.point) * n;

@@ -109,19 +109,27 @@ struct ObjectSettings {
     std::vector<PinKeyframe> keyframes;
 };
 
+/// A collider's shape (one kind for now).
+enum class ColliderType { plane };
+
 struct ColliderSettings {
-    std::string type; ///< "plane"
+    ColliderType type = ColliderType::plane; ///< "plane"
     Vec3 point = Vec3::Zero(); ///< a point of the plane
     Vec3 normal = Vec3::UnitY(); ///< unit length (normalized by the parser)
     double friction = 0.0; ///< Coulomb coefficient, >= 0
 };
 
+/// A frame file format (runtime/output/exporter.hpp).
+enum class OutputFormat { obj, ply, vtu, h5 };
+/// An extra per-vertex field of vtu and h5 frames.
+enum class OutputField { velocity, stretch };
+
 struct OutputSettings {
-    std::vector<std::string> formats; ///< distinct, from obj, ply, vtu, h5
+    std::vector<OutputFormat> formats; ///< distinct: "obj", "ply", "vtu", "h5"
     /// steps per output frame. After parsing: the effective value (derived from time.fps when
     /// that is given), equal to Scene::steps_per_frame.
     int every = 0;
-    std::vector<std::string> fields; ///< distinct, from velocity, stretch
+    std::vector<OutputField> fields; ///< distinct: "velocity", "stretch"
 };
 
 struct Scene {

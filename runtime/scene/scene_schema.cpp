@@ -63,6 +63,32 @@ namespace {
         return key;
     }
 
+    /// A list of distinct strings from a fixed set of choices, stored into the vector of enums
+    /// `member`: the i-th choice is the value i.
+    template <typename S, typename E>
+    KeySpec enum_list_key(Section section, const char* name, std::vector<E> S::*member,
+        std::initializer_list<const char*> names)
+    {
+        static_assert(std::is_enum_v<E>);
+        const std::vector<std::string> choices(names.begin(), names.end());
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = Type::strings;
+        key.choices = choices;
+        key.store = [member, choices](Target target, const Value& value) {
+            std::vector<E>& out = (*std::get<S*>(target)).*member;
+            out.clear();
+            for (const std::string& text : std::get<std::vector<std::string>>(value)) {
+                const auto at = std::find(choices.begin(), choices.end(), text);
+                MAT_CHECK(
+                    at != choices.end(), "scene schema: '{}' is not a choice of its key", text);
+                out.push_back(static_cast<E>(at - choices.begin()));
+            }
+        };
+        return key;
+    }
+
     /// A key whose value is a section that fills `member`. Absent sections are filled with
     /// their defaults unless set_default(nullptr) says the section is optional.
     template <typename S, typename M>
@@ -379,9 +405,8 @@ namespace {
         using T = Type;
         const Json zero = Json::array({ 0, 0, 0 });
         return { // colliders[]
-            value_key(S::collider, "type", T::string, &ColliderSettings::type)
+            enum_key(S::collider, "type", &ColliderSettings::type, { "plane" })
                 .set_required()
-                .set_choices({ "plane" })
                 .set_doc("collider kind"),
             value_key(S::collider, "point", T::vec3, &ColliderSettings::point)
                 .set_default(zero)
@@ -396,9 +421,9 @@ namespace {
                 .set_doc("Coulomb friction coefficient"),
 
             // output
-            value_key(S::output, "format", T::strings, &OutputSettings::formats)
+            enum_list_key(
+                S::output, "format", &OutputSettings::formats, { "obj", "ply", "vtu", "h5" })
                 .set_default(Json::array({ "obj" }))
-                .set_choices({ "obj", "ply", "vtu", "h5" })
                 .set_accept_single()
                 .set_min_count(1)
                 .set_doc("file formats, a string or a list (h5: one HDF5 trajectory cache)"),
@@ -406,9 +431,8 @@ namespace {
                 .set_default(1)
                 .at_least(1)
                 .set_doc("time steps per output frame; not with time.fps"),
-            value_key(S::output, "fields", T::strings, &OutputSettings::fields)
+            enum_list_key(S::output, "fields", &OutputSettings::fields, { "velocity", "stretch" })
                 .set_default(Json::array())
-                .set_choices({ "velocity", "stretch" })
                 .set_doc("extra per-vertex fields written to vtu and h5")
         };
     }

@@ -71,7 +71,7 @@ namespace {
             EXPECT_GE(scene.frames, 60);
             EXPECT_EQ(scene.steps_per_frame, 1);
             expect_vec3(scene.gravity, 0, -9.81, 0);
-            EXPECT_EQ(scene.output.formats, std::vector<std::string> { "obj" });
+            EXPECT_EQ(scene.output.formats, std::vector<OutputFormat> { OutputFormat::obj });
         }
         const Scene bar = read_scene(scenes.at("rounded_bar"), no_file_check());
         ASSERT_EQ(bar.objects[0].pins.size(), 1u);
@@ -112,7 +112,7 @@ namespace {
         EXPECT_FALSE(object.material.strain_limits);
         EXPECT_TRUE(object.pins.empty());
         EXPECT_TRUE(scene.colliders.empty());
-        EXPECT_EQ(scene.output.formats, std::vector<std::string> { "obj" });
+        EXPECT_EQ(scene.output.formats, std::vector<OutputFormat> { OutputFormat::obj });
         EXPECT_EQ(scene.output.every, 1);
         EXPECT_TRUE(scene.output.fields.empty());
     }
@@ -179,14 +179,16 @@ namespace {
         EXPECT_EQ(object.pins[2].nodes, (std::vector<int> { 3, 1, 4 }));
 
         ASSERT_EQ(scene.colliders.size(), 1u);
-        EXPECT_EQ(scene.colliders[0].type, "plane");
+        EXPECT_EQ(scene.colliders[0].type, ColliderType::plane);
         expect_vec3(scene.colliders[0].point, 0, -1, 0);
         expect_vec3(scene.colliders[0].normal, 0, 0, 1); // normalized
         EXPECT_EQ(scene.colliders[0].friction, 0.25);
-        EXPECT_EQ(scene.output.formats, (std::vector<std::string> { "vtu", "h5" }));
+        EXPECT_EQ(scene.output.formats,
+            (std::vector<OutputFormat> { OutputFormat::vtu, OutputFormat::h5 }));
         EXPECT_EQ(scene.output.every, 3);
         EXPECT_EQ(scene.steps_per_frame, 3);
-        EXPECT_EQ(scene.output.fields, (std::vector<std::string> { "velocity", "stretch" }));
+        EXPECT_EQ(scene.output.fields,
+            (std::vector<OutputField> { OutputField::velocity, OutputField::stretch }));
     }
 
     TEST(SceneDefaults, IntegralNumbersAreIntegersAndAFormatMayBeOneString)
@@ -196,7 +198,7 @@ namespace {
         EXPECT_EQ(scene.frames, 12);
         EXPECT_EQ(scene.time.iterations, 20);
         EXPECT_EQ(scene.objects[0].bake, "/abs/body.h5"); // absolute paths are kept, normalized
-        EXPECT_EQ(scene.output.formats, std::vector<std::string> { "ply" });
+        EXPECT_EQ(scene.output.formats, std::vector<OutputFormat> { OutputFormat::ply });
     }
 
     TEST(SceneTime, FpsSetsStepsPerFrame)
