@@ -37,6 +37,26 @@ namespace {
         return key;
     }
 
+    /// The index of `text` in `choices` (which the parser has checked it is one of).
+    int choice_index(const std::vector<std::string>& choices, const std::string& text)
+    {
+        const auto at = std::find(choices.begin(), choices.end(), text);
+        MAT_CHECK(at != choices.end(), "scene schema: '{}' is not a choice of its key", text);
+        return static_cast<int>(at - choices.begin());
+    }
+
+    /// A key of `type` (string or strings) restricted to `names`.
+    KeySpec choice_key(
+        Section section, const char* name, Type type, std::initializer_list<const char*> names)
+    {
+        KeySpec key;
+        key.section = section;
+        key.name = name;
+        key.type = type;
+        key.choices.assign(names.begin(), names.end());
+        return key;
+    }
+
     /// A string key with a fixed set of choices, stored into the enum (or bool) `member`: the
     /// i-th choice is the value i (for a bool: the first choice is true).
     template <typename S, typename E>
@@ -44,17 +64,9 @@ namespace {
         Section section, const char* name, E S::*member, std::initializer_list<const char*> names)
     {
         static_assert(std::is_enum_v<E> || std::is_same_v<E, bool>);
-        const std::vector<std::string> choices(names.begin(), names.end());
-        KeySpec key;
-        key.section = section;
-        key.name = name;
-        key.type = Type::string;
-        key.choices = choices;
-        key.store = [member, choices](Target target, const Value& value) {
-            const auto at = std::find(choices.begin(), choices.end(), std::get<std::string>(value));
-            MAT_CHECK(at != choices.end(), "scene schema: '{}' is not a choice of its key",
-                std::get<std::string>(value));
-            const auto index = static_cast<int>(at - choices.begin());
+        KeySpec key = choice_key(section, name, Type::string, names);
+        key.store = [member, choices = key.choices](Target target, const Value& value) {
+            const int index = choice_index(choices, std::get<std::string>(value));
             if constexpr (std::is_same_v<E, bool>)
                 (*std::get<S*>(target)).*member = index == 0;
             else
@@ -70,21 +82,12 @@ namespace {
         std::initializer_list<const char*> names)
     {
         static_assert(std::is_enum_v<E>);
-        const std::vector<std::string> choices(names.begin(), names.end());
-        KeySpec key;
-        key.section = section;
-        key.name = name;
-        key.type = Type::strings;
-        key.choices = choices;
-        key.store = [member, choices](Target target, const Value& value) {
+        KeySpec key = choice_key(section, name, Type::strings, names);
+        key.store = [member, choices = key.choices](Target target, const Value& value) {
             std::vector<E>& out = (*std::get<S*>(target)).*member;
             out.clear();
-            for (const std::string& text : std::get<std::vector<std::string>>(value)) {
-                const auto at = std::find(choices.begin(), choices.end(), text);
-                MAT_CHECK(
-                    at != choices.end(), "scene schema: '{}' is not a choice of its key", text);
-                out.push_back(static_cast<E>(at - choices.begin()));
-            }
+            for (const std::string& text : std::get<std::vector<std::string>>(value))
+                out.push_back(static_cast<E>(choice_index(choices, text)));
         };
         return key;
     }
