@@ -41,11 +41,13 @@ namespace {
                            "bodies or non-adjacent primitives ({} of {}{}), {:.3f}% on pairs "
                            "within one or adjacent primitives ({} of {}, not looked for), {} "
                            "reported pairs not in the ground truth, max penetration {:.4g} m "
-                           "({:.3f}% of the largest diagonal), {:.3f} s\n",
+                           "({:.3f}% of the largest diagonal); within a body: {} far pairs, max "
+                           "self penetration {:.4g} m; {:.3f} s\n",
             c.steps, 100.0 * recall(c.far_found, c.far_pairs), c.far_found, c.far_pairs,
             c.far_found == c.far_pairs ? "" : ": MISSED SOME",
             100.0 * recall(c.near_found, c.near_pairs), c.near_found, c.near_pairs, c.extra,
-            c.max_penetration, 100.0 * c.max_penetration / std::max(diagonal, 1e-300), c.seconds);
+            c.max_penetration, 100.0 * c.max_penetration / std::max(diagonal, 1e-300), c.self_pairs,
+            c.max_self_penetration, c.seconds);
     }
 
     /// The largest rest bounding-box diagonal of the bodies.

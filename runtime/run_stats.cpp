@@ -79,9 +79,11 @@ namespace {
         return nlohmann::json { { "far_recall", recall(c.far_found, c.far_pairs) },
             { "far_pairs", c.far_pairs }, { "far_found", c.far_found },
             { "near_recall", recall(c.near_found, c.near_pairs) }, { "near_pairs", c.near_pairs },
-            { "near_found", c.near_found }, { "extra", c.extra },
+            { "near_found", c.near_found }, { "extra", c.extra }, { "self_pairs", c.self_pairs },
             { "max_penetration", c.max_penetration },
-            { "penetrating_vertices", c.penetrating_vertices }, { "steps", c.steps },
+            { "penetrating_vertices", c.penetrating_vertices },
+            { "max_self_penetration", c.max_self_penetration },
+            { "self_penetrating_vertices", c.self_penetrating_vertices }, { "steps", c.steps },
             { "seconds", c.seconds } };
     }
 

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/collision/triangle_tests.hpp"
@@ -144,6 +147,20 @@ namespace {
         return std::sqrt(best);
     }
 
+    /// The solid angle of triangle (a, b, c) seen from p, signed by the triangle's orientation
+    /// (Van Oosterom and Strackee 1983); 0 for p in the triangle's plane (on the triangle it jumps
+    /// between -2 pi and 2 pi: a point on the surface counts as on it, not inside).
+    double solid_angle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c)
+    {
+        const Vec3 u = a - p, v = b - p, w = c - p;
+        const double numerator = u.dot(v.cross(w));
+        if (numerator == 0.0)
+            return 0.0;
+        const double lu = u.norm(), lv = v.norm(), lw = w.norm();
+        const double denominator = lu * lv * lw + u.dot(v) * lw + u.dot(w) * lv + v.dot(w) * lu;
+        return 2.0 * std::atan2(numerator, denominator);
+    }
+
 } // namespace
 
 void CollisionCheckCounts::add(const CollisionCheckCounts& other)
@@ -153,8 +170,12 @@ void CollisionCheckCounts::add(const CollisionCheckCounts& other)
     near_pairs += other.near_pairs;
     near_found += other.near_found;
     extra += other.extra;
+    self_pairs += other.self_pairs;
     max_penetration = std::max(max_penetration, other.max_penetration);
     penetrating_vertices = std::max(penetrating_vertices, other.penetrating_vertices);
+    max_self_penetration = std::max(max_self_penetration, other.max_self_penetration);
+    self_penetrating_vertices
+        = std::max(self_penetrating_vertices, other.self_penetrating_vertices);
     steps += other.steps;
     seconds += other.seconds;
 }
@@ -208,6 +229,53 @@ PenetrationDepth penetration_depth(const std::vector<SurfaceMesh>& surfaces)
     return result;
 }
 
+PenetrationDepth self_penetration_depth(const SurfaceMesh& surface,
+    const Eigen::Ref<const VecXi>& vertex_primitive,
+    const Eigen::Ref<const MatX3i>& primitive_spheres)
+{
+    const Index vs = surface.positions.rows();
+    const Index nf = surface.num_faces();
+    MAT_CHECK(vertex_primitive.size() == vs,
+        "self penetration: {} vertex primitives for {} vertices", vertex_primitive.size(), vs);
+    const auto corner = [&](Index f, int k) -> Vec3 {
+        return surface.positions.row(surface.faces(f, k)).transpose();
+    };
+    // Per vertex: its depth if it is inside the body, else -1 (in parallel, then merged in order).
+    std::vector<double> depth(static_cast<std::size_t>(vs), -1.0);
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, vs), [&](const tbb::blocked_range<Index>& range) {
+            for (Index v = range.begin(); v != range.end(); ++v) {
+                const Vec3 p = surface.positions.row(v).transpose();
+                double angle = 0.0;
+                for (Index f = 0; f < nf; ++f)
+                    angle += solid_angle(p, corner(f, 0), corner(f, 1), corner(f, 2));
+                if (angle / (4.0 * M_PI) <= 1.0)
+                    continue;
+                const int pv = vertex_primitive(v);
+                double best = std::numeric_limits<double>::infinity();
+                for (Index f = 0; f < nf; ++f) {
+                    bool far = true;
+                    for (int k = 0; k < 3 && far; ++k) {
+                        const int q = vertex_primitive(surface.faces(f, k));
+                        far = q != pv && !share_sphere(primitive_spheres, pv, q);
+                    }
+                    if (far)
+                        best = std::min(best,
+                            point_triangle_closest(p, corner(f, 0), corner(f, 1), corner(f, 2))
+                                .squared_distance);
+                }
+                depth[static_cast<std::size_t>(v)] = std::isfinite(best) ? std::sqrt(best) : 0.0;
+            }
+        });
+    PenetrationDepth result;
+    for (const double d : depth)
+        if (d >= 0.0) {
+            ++result.vertices;
+            result.max_depth = std::max(result.max_depth, d);
+        }
+    return result;
+}
+
 CollisionCheckCounts check_collisions(const Simulation& simulation)
 {
     Timer timer;
@@ -244,6 +312,7 @@ CollisionCheckCounts check_collisions(const Simulation& simulation)
                 pair[1], pair[3]);
         const bool hit = std::binary_search(found.begin(), found.end(), pair);
         (far ? counts.far_pairs : counts.near_pairs) += 1;
+        counts.self_pairs += far && pair[0] == pair[2] ? 1 : 0;
         (far ? counts.far_found : counts.near_found) += hit ? 1 : 0;
     }
     for (const FacePair& pair : found)
@@ -259,6 +328,26 @@ CollisionCheckCounts check_collisions(const Simulation& simulation)
     const PenetrationDepth depth = penetration_depth(surfaces);
     counts.max_penetration = depth.max_depth;
     counts.penetrating_vertices = depth.vertices;
+    // Self penetration, for the bodies with far self pairs before the step.
+    std::vector<char> self_pairs(static_cast<std::size_t>(n), 0);
+    for (const TrianglePair& pair : truth)
+        if (pair[0] == pair[2]) {
+            const Body& body = bodies[static_cast<std::size_t>(pair[0])];
+            if (!body.is_static && !body.asleep
+                && faces_in_non_adjacent_primitives(world->faces(pair[0]),
+                    body.model->primitives().vertex_primitive,
+                    body.model->primitives().primitive_spheres, pair[1], pair[3]))
+                self_pairs[static_cast<std::size_t>(pair[0])] = 1;
+        }
+    for (Index b = 0; b < n; ++b) {
+        if (!self_pairs[static_cast<std::size_t>(b)])
+            continue;
+        const BodyModel& model = *bodies[static_cast<std::size_t>(b)].model;
+        const PenetrationDepth self = self_penetration_depth(
+            surfaces[b], model.primitives().vertex_primitive, model.primitives().primitive_spheres);
+        counts.max_self_penetration = std::max(counts.max_self_penetration, self.max_depth);
+        counts.self_penetrating_vertices += self.vertices;
+    }
     counts.seconds = timer.seconds();
     return counts;
 }

@@ -17,8 +17,16 @@
 // them), and so are self pairs when self collision is off.
 // The penetration depth is measured on the bodies' surfaces after the step (after the contact
 // response): the largest distance from a surface vertex of one body that lies inside another
-// body's closed surface to that surface. Self penetration is not measured (a vertex of a closed
-// surface is on it, not inside it).
+// body's closed surface to that surface. Self penetration (with self collision on): the vertices
+// of a body that lie inside its own volume, found by the surface's generalized winding number
+// (Jacobson et al. 2013: the solid angle of every triangle seen from the vertex, over 4 pi). At a
+// vertex of an embedded closed surface it is the vertex's interior angle fraction, in (0, 1), and
+// every other sheet of the surface that encloses the vertex adds 1: a vertex is inside its own
+// body where it exceeds 1. Its depth is its distance to the nearest face of a non-adjacent part
+// (no vertex of the face in the vertex's primitive or one sharing a sphere with it). It is
+// computed only for a body with far self-intersecting pairs at the start of the step (without
+// them the surface is embedded apart from local folds, and no vertex can be inside it; a self
+// penetration that begins within a step is measured from the next step on), at O(#Vs x #F) cost.
 
 #include <vector>
 
@@ -35,8 +43,11 @@ struct CollisionCheckCounts {
     long near_pairs = 0; ///< ground-truth self pairs within one or in adjacent primitives
     long near_found = 0;
     long extra = 0; ///< pairs the world reported that the ground truth does not have
+    long self_pairs = 0; ///< of the far pairs, those within one body
     double max_penetration = 0.0; ///< m, deepest vertex inside another body
     int penetrating_vertices = 0; ///< vertices inside another body (max over steps)
+    double max_self_penetration = 0.0; ///< m, deepest vertex inside its own body
+    int self_penetrating_vertices = 0; ///< vertices inside their own body (max over steps)
     long steps = 0;
     double seconds = 0.0; ///< time spent checking
 
@@ -63,6 +74,13 @@ struct PenetrationDepth {
 /// B (ray parity along +x, exact orientation predicates with a symbolic tie-break, so a ray
 /// through an edge counts once) and their distance to B. A vertex on B counts as outside.
 PenetrationDepth penetration_depth(const std::vector<SurfaceMesh>& surfaces);
+
+/// The vertices of one closed surface inside its own volume (winding number above 1) and the
+/// deepest one's distance to a face of a non-adjacent part (see the file comment).
+/// surface  #Vs x 3 positions and #F x 3 faces, vertex_primitive  #Vs, primitive_spheres  #P x 3.
+PenetrationDepth self_penetration_depth(const SurfaceMesh& surface,
+    const Eigen::Ref<const VecXi>& vertex_primitive,
+    const Eigen::Ref<const MatX3i>& primitive_spheres);
 
 /// The comparison above for `simulation` after a step (its collision world must exist).
 CollisionCheckCounts check_collisions(const Simulation& simulation);

@@ -70,6 +70,63 @@ namespace {
         EXPECT_EQ(penetration_depth({ cube(Vec3::Zero(), 1.0) }).vertices, 0);
     }
 
+    /// Two cubes as the two parts of one surface: the first cube's vertices in primitive 0, the
+    /// second's in primitive 1 (spheres 0 and 1: non-adjacent unless `shared`).
+    struct TwoPartSurface {
+        SurfaceMesh surface;
+        VecXi vertex_primitive;
+        MatX3i primitive_spheres;
+    };
+    TwoPartSurface two_cubes(const Vec3& lo_b, double size_b, bool shared = false)
+    {
+        const SurfaceMesh a = cube(Vec3::Zero(), 1.0), b = cube(lo_b, size_b);
+        TwoPartSurface part;
+        part.surface.positions.resize(16, 3);
+        part.surface.positions << a.positions, b.positions;
+        part.surface.faces.resize(24, 3);
+        part.surface.faces << a.faces, (b.faces.array() + 8).matrix();
+        part.vertex_primitive.resize(16);
+        part.vertex_primitive << VecXi::Zero(8), VecXi::Ones(8);
+        part.primitive_spheres.resize(2, 3);
+        part.primitive_spheres << 0, -1, -1, (shared ? 0 : 1), -1, -1;
+        return part;
+    }
+
+    TEST(SelfPenetration, CornerOfOnePartInsideAnother)
+    {
+        // The second part's corner (0.75, 0.75, 0.75) is 0.25 inside the first (winding number
+        // 1/8 of its own cube + 1); the first part's corner (1, 1, 1) is inside the second, 0.25
+        // from its faces too. No other vertex is inside.
+        const TwoPartSurface part = two_cubes(Vec3(0.75, 0.75, 0.75), 1.0);
+        const PenetrationDepth depth
+            = self_penetration_depth(part.surface, part.vertex_primitive, part.primitive_spheres);
+        EXPECT_EQ(depth.vertices, 2);
+        EXPECT_NEAR(depth.max_depth, 0.25, 1e-12);
+        // Deeper: a small cube wholly inside; all 8 of its corners, the deepest 0.4 from a face.
+        const TwoPartSurface inner = two_cubes(Vec3(0.4, 0.4, 0.4), 0.2);
+        const PenetrationDepth all = self_penetration_depth(
+            inner.surface, inner.vertex_primitive, inner.primitive_spheres);
+        EXPECT_EQ(all.vertices, 8);
+        EXPECT_NEAR(all.max_depth, 0.4, 1e-12);
+    }
+
+    TEST(SelfPenetration, EmbeddedAndApartPartsAreNotInside)
+    {
+        // Apart, and touching face to face: no vertex is inside the body.
+        for (const Vec3& lo : { Vec3(1.5, 0.0, 0.0), Vec3(1.0, 0.25, 0.25) }) {
+            const TwoPartSurface part = two_cubes(lo, 1.0);
+            EXPECT_EQ(
+                self_penetration_depth(part.surface, part.vertex_primitive, part.primitive_spheres)
+                    .vertices,
+                0)
+                << lo.transpose();
+        }
+        // One closed cube alone: every corner has winding number 1/8.
+        const SurfaceMesh one = cube(Vec3::Zero(), 1.0);
+        EXPECT_EQ(
+            self_penetration_depth(one, VecXi::Zero(8), MatX3i::Constant(1, 3, -1)).vertices, 0);
+    }
+
     TEST(CollisionCheck, SelfPairsSplitByPrimitiveAdjacency)
     {
         // Primitives: 0 = cone (spheres 0, 1), 1 = cone (1, 2), 2 = sphere 3.
