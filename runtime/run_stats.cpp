@@ -42,6 +42,7 @@ namespace {
         into.primitive_candidates = std::max(into.primitive_candidates, step.primitive_candidates);
         into.primitive_pairs = std::max(into.primitive_pairs, step.primitive_pairs);
         into.triangle_tests = std::max(into.triangle_tests, step.triangle_tests);
+        into.node_tests = std::max(into.node_tests, step.node_tests);
         into.intersecting_triangles
             = std::max(into.intersecting_triangles, step.intersecting_triangles);
         into.contacts = std::max(into.contacts, step.contacts);
@@ -68,7 +69,7 @@ namespace {
         return nlohmann::json { { "updated_bodies", r.updated_bodies },
             { "object_pairs", r.object_pairs }, { "hashed_bodies", r.hashed_bodies },
             { "candidates", r.primitive_candidates }, { "primitive_pairs", r.primitive_pairs },
-            { "triangle_tests", r.triangle_tests },
+            { "triangle_tests", r.triangle_tests }, { "node_tests", r.node_tests },
             { "intersecting_triangles", r.intersecting_triangles }, { "contacts", r.contacts },
             { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
     }

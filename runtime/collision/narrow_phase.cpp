@@ -124,10 +124,10 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     // triangles are sorted along the sweep axis.
     choose_sweep_axis();
     const int axis = m_axis;
-    for_each_body(bodies, [&](const NarrowPhaseBody&, BodyData& data) {
+    for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
         size_columns(data, axis);
         sort_into_columns(data, axis);
-        store_face_boxes(data);
+        store_face_boxes(body, data);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -270,7 +270,7 @@ void NarrowPhase::sort_into_columns(BodyData& data, int axis)
             });
 }
 
-void NarrowPhase::store_face_boxes(BodyData& data)
+void NarrowPhase::store_face_boxes(const NarrowPhaseBody& body, BodyData& data)
 {
     const std::size_t active = data.faces.size();
     for (int a = 0; a < 3; ++a) {
@@ -278,6 +278,7 @@ void NarrowPhase::store_face_boxes(BodyData& data)
         data.hi[static_cast<std::size_t>(a)].resize(active);
     }
     data.index.resize(active);
+    data.speed.resize(active);
     for (std::size_t k = 0; k < active; ++k) {
         const Item& item = data.faces[k];
         for (int a = 0; a < 3; ++a) {
@@ -285,6 +286,11 @@ void NarrowPhase::store_face_boxes(BodyData& data)
             data.hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
         }
         data.index[k] = item.index;
+        double speed = 0.0;
+        if (body.velocities != nullptr)
+            for (int c = 0; c < 3; ++c)
+                speed = std::max(speed, body.velocities->row((*body.faces)(item.index, c)).norm());
+        data.speed[k] = speed;
     }
 }
 
@@ -425,6 +431,29 @@ namespace {
         return true;
     }
 
+    /// Whether the box of face k (`lo`, `hi`: the faces' boxes, `speed`: their fastest corners) is
+    /// farther from the node than the margin (plus what gravity adds) and what the node and the
+    /// face's fastest corner can close in the step: then node_face_hit rejects the face too (a node
+    /// behind a face is within its box grown by the margin on each axis, so within sqrt(3)
+    /// margins of it, and a node in front is taken only
+    /// within near + lookahead x its approach speed, at most its own speed plus the fastest
+    /// corner's), so skipping it changes nothing. The bound has a relative slack of 1e-9 against
+    /// rounding.
+    bool face_out_of_reach(const NodeQuery& q, const std::array<std::vector<double>, 3>& lo,
+        const std::array<std::vector<double>, 3>& hi, const std::vector<double>& speed,
+        std::size_t k, double own_speed)
+    {
+        double squared = 0.0;
+        for (std::size_t a = 0; a < 3; ++a) {
+            const double gap = std::max({ lo[a][k] - q.x[static_cast<Index>(a)],
+                q.x[static_cast<Index>(a)] - hi[a][k], 0.0 });
+            squared += gap * gap;
+        }
+        const double reach = (1.0 + 1e-9)
+            * (std::max(q.near, std::sqrt(3.0) * q.margin) + q.lookahead * (own_speed + speed[k]));
+        return squared > reach * reach;
+    }
+
     /// Whether a hit at `signed_distance` on triangle f of body bf loses to `best`: further
     /// (unsigned), or as far on a higher (body, face).
     bool loses_to(const NodeCandidate& best, double signed_distance, int bf, int f)
@@ -505,8 +534,10 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
                     m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
                 m = _mm512_mask_cmp_pd_mask(
                     m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
-                for (unsigned bits = m; bits != 0; bits &= bits - 1)
-                    visit(face[k + __builtin_ctz(bits)]);
+                for (unsigned bits = m; bits != 0; bits &= bits - 1) {
+                    const int at = k + static_cast<int>(__builtin_ctz(bits));
+                    visit(face[at], at);
+                }
                 if (before != live)
                     break;
             }
@@ -515,7 +546,7 @@ void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visi
                 if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
                     & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
                     & (grown.min()(v) <= hi_v[k]))
-                    visit(face[k]);
+                    visit(face[k], k);
 #endif
         }
 }
@@ -570,7 +601,7 @@ void NarrowPhase::test_triangle(
         if (bb < ba)
             continue;
         const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-        overlapping(bb, item.box, 0.0, [&](int fb) {
+        overlapping(bb, item.box, 0.0, [&](int fb, int) {
             if (bb == ba
                 && (fb <= fa || share_corner(a, fa, b, fb)
                     || !self_pair_allowed(ba, fa, fb, false)))
@@ -621,7 +652,14 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.velocity.norm() + other.motion;
         query.same_body = bf == bn;
-        overlapping(bf, item.box, query.reach, [&](int f) {
+        const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
+        const double own_speed = query.velocity.norm();
+        overlapping(bf, item.box, query.reach, [&](int f, int k) {
+            // Out of reach of the node and this face's fastest corner (a cheap bound before
+            // the exact tests: see face_out_of_reach).
+            if (face_out_of_reach(
+                    query, faces.lo, faces.hi, faces.speed, static_cast<std::size_t>(k), own_speed))
+                return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;
             ++scratch.node_tests;

@@ -134,6 +134,9 @@ private:
         /// structure-of-arrays form for the queries; lo[axis] are the sort keys.
         std::array<std::vector<double>, 3> lo, hi;
         std::vector<int> index;
+        /// Per face of `faces`, the fastest of its corners (m/s; 0 at rest): a node's search
+        /// skips a face whose box is farther than the node and this face can close in the step.
+        std::vector<double> speed;
         std::vector<int> fill; ///< columns, scatter cursors
         std::vector<Item> sorted; ///< workspace of the counting sort
 
@@ -174,7 +177,7 @@ private:
     /// Sorts a body's active triangles by column, then along `axis` within a column.
     static void sort_into_columns(BodyData& data, int axis);
     /// Copies the sorted triangles' boxes and indices into the structure-of-arrays lists.
-    static void store_face_boxes(BodyData& data);
+    static void store_face_boxes(const NarrowPhaseBody& body, BodyData& data);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     template <class Visit>
     void overlapping(int body, const Box3& box, double grow, const Visit& visit) const;
