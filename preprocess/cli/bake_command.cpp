@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/cli.hpp"
 #include "common/log.hpp"
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
@@ -20,7 +21,7 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
               ->check(CLI::ExistingFile);
     app.add_option("--spheres", options.spheres,
            "Generate the medial mesh with this many spheres instead of reading --medial")
-        ->check(CLI::PositiveNumber)
+        ->check(whole_number_at_least(1))
         ->excludes(medial);
     add_medial_generator_options(app, options.generator);
     app.add_option("-o,--output", options.output, "The bake file to write (.h5)");
