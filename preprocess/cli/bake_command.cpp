@@ -25,6 +25,11 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
         ->excludes(medial);
     add_medial_generator_options(app, options.generator);
     app.add_option("-o,--output", options.output, "The bake file to write (.h5)");
+    app.add_option("--unit", options.unit,
+           "Length unit of SURFACE and --medial (centers and radii): mm, cm, m or in; the bake "
+           "is in metres")
+        ->check(CLI::IsMember({ "mm", "cm", "m", "in" }))
+        ->capture_default_str();
     app.add_option(
            "--tet-size", options.tet_size, "Tet size as a fraction of the bounding-box diagonal")
         ->capture_default_str();
