@@ -16,9 +16,9 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
     app.add_option(
            "surface", options.surface, "Closed surface to bake (OBJ, PLY, STL, OFF, glTF, ...)")
         ->check(CLI::ExistingFile);
-    CLI::Option* medial
-        = app.add_option("--medial", options.medial, "Its medial mesh (.ma, Q-MAT or the paper's)")
-              ->check(CLI::ExistingFile);
+    CLI::Option* medial = app.add_option("--medial", options.medial,
+                                 "Its medial mesh (.ma, Q-MAT or the paper's; Medial IPC's .mat)")
+                              ->check(CLI::ExistingFile);
     app.add_option("--spheres", options.spheres,
            "Generate the medial mesh with this many spheres instead of reading --medial")
         ->check(whole_number_at_least(1))
