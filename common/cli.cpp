@@ -1,7 +1,11 @@
 #include "common/cli.hpp"
 
+#include <charconv>
 #include <cstdio>
 #include <exception>
+#include <limits>
+#include <string>
+#include <system_error>
 
 #include "common/error.hpp"
 #include "common/log.hpp"
@@ -9,6 +13,33 @@
 #include "common/version.hpp"
 
 namespace mat {
+
+CLI::Validator whole_number_in(long long min, long long max)
+{
+    const std::string description = max == std::numeric_limits<long long>::max()
+        ? fmt::format("INT >= {}", min)
+        : fmt::format("INT in {}..{}", min, max);
+    return CLI::Validator(
+        [min, max](std::string& input) -> std::string {
+            long long value = 0;
+            const char* end = input.data() + input.size();
+            const auto [stop, error] = std::from_chars(input.data(), end, value);
+            if (input.empty() || error == std::errc::invalid_argument || stop != end)
+                return fmt::format("must be a whole number, got '{}'", input);
+            if (error == std::errc::result_out_of_range || value < min || value > max) {
+                if (max == std::numeric_limits<long long>::max())
+                    return fmt::format("must be at least {}, got {}", min, input);
+                return fmt::format("must be from {} to {}, got {}", min, max, input);
+            }
+            return std::string();
+        },
+        description);
+}
+
+CLI::Validator whole_number_at_least(long long min)
+{
+    return whole_number_in(min, std::numeric_limits<long long>::max());
+}
 
 void add_common_options(CLI::App& app, CommonOptions& options)
 {
@@ -18,7 +49,7 @@ void add_common_options(CLI::App& app, CommonOptions& options)
         ->capture_default_str();
     app.add_option("--threads", options.threads, "Worker threads (0: all cores)")
         ->capture_default_str()
-        ->check(CLI::Range(0, 4096));
+        ->check(whole_number_in(0, 4096));
 }
 
 void apply_common_options(const CommonOptions& options)

@@ -14,6 +14,14 @@ struct CommonOptions {
     int threads = 0; ///< 0: all cores
 };
 
+/// A check for a whole-number option in [min, max], whose failure reads in plain words:
+/// "--spheres: must be at least 1, got 0" (CLI11's own Range and PositiveNumber print the
+/// limits of double in full). docs/mat-bake.md and docs/mat-run.md list the ranges.
+CLI::Validator whole_number_in(long long min, long long max);
+
+/// A check for a whole-number option of at least min ("must be at least 1, got 0").
+CLI::Validator whole_number_at_least(long long min);
+
 /// Adds --version, --log-level and --threads to app, bound to options.
 void add_common_options(CLI::App& app, CommonOptions& options);
 

@@ -134,6 +134,33 @@ namespace {
             return static_cast<int>(value);
         }
 
+        /// `v x y z r`, or Medial IPC's `.mat` layout `v x y z r t` with the tet node `t` of
+        /// the sphere (an integer, not used: docs/mat-bake.md). Every `v` of a file has the
+        /// same layout; a `.mat` file is of the cones/slabs dialect.
+        void check_sphere_fields()
+        {
+            const std::size_t found = m_reader.tokens().size() - 1;
+            if (m_sphere_fields == 0 && (found == 4 || found == 5)) {
+                m_sphere_fields = found;
+                m_sphere_fields_line = m_reader.line_number();
+                if (found == 5)
+                    note_dialect(MedialDialect::paper, 'v');
+            }
+            if (m_sphere_fields == 0 || found != m_sphere_fields) {
+                if (m_sphere_fields == 5)
+                    fail("wrong number of fields: 'v' records have 5 values (v x y z r tet-node) "
+                         "since line {}, found {}",
+                        m_sphere_fields_line, found);
+                expect_fields('v', 4, "v x y z r");
+            }
+            if (found == 5) {
+                std::int64_t node = 0;
+                if (!text_io::parse_integer(m_reader.tokens()[5], node))
+                    fail("tet node {} of vertex {} is not an integer", quote(m_reader.tokens()[5]),
+                        m_radii.size());
+            }
+        }
+
         void note_dialect(MedialDialect dialect, char letter)
         {
             if (!m_dialect) {
@@ -141,6 +168,10 @@ namespace {
                 m_dialect_letter = letter;
                 m_dialect_line = m_reader.line_number();
             } else if (*m_dialect != dialect) {
+                if (m_dialect_letter == 'v')
+                    fail("'{}' record (Q-MAT dialect) in a .mat file (5-value 'v' records from "
+                         "line {}): .mat files use the cones/slabs dialect (c, s)",
+                        letter, m_dialect_line);
                 fail("'{}' record ({} dialect) after the '{}' record of line {} ({} dialect): the "
                      "dialects cannot be mixed",
                     letter, dialect == MedialDialect::qmat ? "Q-MAT" : "paper", m_dialect_letter,
@@ -156,7 +187,7 @@ namespace {
                     quote(letter));
             const char c = letter[0];
             if (c == 'v') {
-                expect_fields(c, 4, "v x y z r");
+                check_sphere_fields();
                 const double x = real_field(1, "x");
                 const double y = real_field(2, "y");
                 const double z = real_field(3, "z");
@@ -239,7 +270,14 @@ namespace {
             return mesh;
         }
 
+    public:
+        /// True once the file has read as Medial IPC's .mat layout (5-value `v` records).
+        bool has_tet_nodes() const { return m_sphere_fields == 5; }
+
+    private:
         std::array<int, 3> m_counts { 0, 0, 0 };
+        std::size_t m_sphere_fields = 0; // values of the first 'v' record (4 or 5), 0 before it
+        int m_sphere_fields_line = 0;
         int m_header_line = 0;
         std::optional<MedialDialect> m_dialect;
         char m_dialect_letter = 0;
@@ -345,7 +383,13 @@ namespace {
 
 MedialMesh read_medial_from_string(std::string_view text, const std::string& name)
 {
-    return MedialParser(text, name).parse();
+    MedialParser parser(text, name);
+    MedialMesh mesh = parser.parse();
+    if (parser.has_tet_nodes())
+        logger().info("{}: Medial IPC .mat layout: the cones/slabs dialect, the fifth value of "
+                      "each 'v' record (its tet node) is ignored",
+            name);
+    return mesh;
 }
 
 MedialMesh read_medial(const std::string& path)

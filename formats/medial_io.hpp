@@ -5,6 +5,8 @@
 //   the paper's: header `nv nc ns`, records `v x y z r`, `c i j` (cones), `s i j k` (slabs).
 // Indices are 0-based; '#' starts a comment; blank lines are ignored. The dialect is told by
 // the record letters the body uses (e/f or c/s); a file of spheres only is valid in both.
+// Medial IPC's .mat files are the paper's dialect with `v x y z r t`, t the sphere's tet node:
+// checked to be an integer and ignored (docs/mat-bake.md, Inputs).
 
 #include <string>
 #include <string_view>

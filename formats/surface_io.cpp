@@ -6,10 +6,8 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <mutex>
-#include <sstream>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -25,6 +23,7 @@
 #include "common/log.hpp"
 #include "formats/surface_io_internal.hpp"
 #include "formats/surface_ply.hpp"
+#include "formats/surface_text_check.hpp"
 
 namespace mat {
 
@@ -33,8 +32,9 @@ namespace {
     namespace fs = std::filesystem;
     using detail::RawSurface;
 
-    /// Passes assimp's messages to our logger: errors as warnings (some loaders log and carry
-    /// on, e.g. OFF clamps an out-of-range index), warnings as debug.
+    /// Passes assimp's errors and warnings to our logger at debug level: they show with
+    /// --log-level debug only (docs/mat-bake.md). What a user acts on is our own message: the
+    /// OFF and OBJ checks (surface_text_check.hpp) or the importer's failure.
     class AssimpLogForwarder : public Assimp::LogStream {
     public:
         explicit AssimpLogForwarder(spdlog::level::level_enum level)
@@ -63,49 +63,9 @@ namespace {
         std::call_once(once, [] {
             Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);
             Assimp::Logger* log = Assimp::DefaultLogger::get();
-            log->attachStream(new AssimpLogForwarder(spdlog::level::warn), Assimp::Logger::Err);
-            log->attachStream(new AssimpLogForwarder(spdlog::level::debug), Assimp::Logger::Warn);
+            log->attachStream(new AssimpLogForwarder(spdlog::level::debug),
+                Assimp::Logger::Err | Assimp::Logger::Warn);
         });
-    }
-
-    /// assimp allocates what an OFF header announces before reading the body: reject counts
-    /// the file is too small to hold (a vertex takes at least 6 bytes, a face 8).
-    void check_off_counts(const std::string& path)
-    {
-        std::ifstream in(path, std::ios::binary);
-        std::string head(4096, '\0');
-        in.read(head.data(), static_cast<std::streamsize>(head.size()));
-        head.resize(static_cast<std::size_t>(in.gcount()));
-        std::istringstream lines(head);
-        std::string line, keyword;
-        long long counts[2] = { -1, -1 };
-        int found = 0;
-        while (found < 3 && std::getline(lines, line)) {
-            if (line.empty() || line[0] == '#')
-                continue;
-            std::istringstream words(line);
-            if (found == 0) {
-                words >> keyword;
-                const bool off = keyword.size() >= 3
-                    && keyword.compare(keyword.size() - 3, 3, "OFF") == 0
-                    && keyword.find_first_of("n4") == std::string::npos;
-                if (!off)
-                    return;
-                found = 1;
-            }
-            while (found < 3 && words >> counts[found - 1])
-                ++found;
-            if (found < 3 && !words.eof())
-                return; // not the layout we know: leave it to assimp
-        }
-        if (found < 3 || counts[0] < 0 || counts[1] < 0)
-            return;
-        std::error_code ec;
-        const auto size = static_cast<long double>(fs::file_size(path, ec));
-        if (!ec && 6.0L * counts[0] + 8.0L * counts[1] > size + 16.0L)
-            throw_error("{}: cannot read surface: the OFF header announces {} vertices and {} "
-                        "faces, more than the file's {} bytes can hold",
-                path, counts[0], counts[1], static_cast<long long>(size));
     }
 
     Mat4 to_eigen(const aiMatrix4x4& m)
@@ -258,7 +218,10 @@ namespace {
     /// Everything but PLY goes through assimp: triangulated, per-mesh welded, then gathered.
     RawSurface read_with_assimp(const std::string& path)
     {
-        check_off_counts(path);
+        if (detail::lower_extension(path) == ".obj")
+            detail::check_obj_text(path);
+        else
+            detail::check_off_text(path);
         forward_assimp_log();
         Assimp::Importer importer;
         // Normals, tangents, colors and texture coordinates would keep apart the copies of a

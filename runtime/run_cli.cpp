@@ -40,7 +40,7 @@ int run_main(int argc, char** argv)
         ->check(CLI::ExistingFile);
     app.add_option("-o,--output", options.output, "Output directory (created if missing)");
     app.add_option("--frames", options.frames, "Output frames to run (overrides the scene)")
-        ->check(CLI::PositiveNumber);
+        ->check(whole_number_at_least(1));
     app.add_option("--solver", options.solver,
            "semi: semi-reduced PD (reduced global step); full: full-space PD (reference); hyper: "
            "hyper-reduced PD (local step on sampled tets, solver.hyper_samples)")

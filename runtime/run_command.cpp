@@ -111,10 +111,21 @@ namespace {
             throw_error("--preview-size {}x{}: each side must be 16 to 8192 pixels",
                 options.preview_width, options.preview_height);
         if (!options.stats.empty()) {
-            const auto parent = std::filesystem::path(options.stats).parent_path();
-            if (!parent.empty() && !std::filesystem::is_directory(parent))
-                throw_error(
-                    "--stats {}: the directory {} does not exist", options.stats, parent.string());
+            // The stats file may go into the -o directory, which the run creates later
+            // (docs/mat-run.md).
+            namespace fs = std::filesystem;
+            const fs::path parent = fs::path(options.stats).parent_path();
+            const auto directory = [](const fs::path& path) {
+                std::error_code error;
+                fs::path full = fs::weakly_canonical(path, error).lexically_normal();
+                return full.has_filename() ? full : full.parent_path();
+            };
+            const bool into_output
+                = !parent.empty() && directory(parent) == directory(options.output);
+            if (!parent.empty() && !into_output && !fs::is_directory(parent))
+                throw_error("--stats {}: the directory {} does not exist (it may be the -o "
+                            "directory, which the run creates)",
+                    options.stats, parent.string());
         }
         return options.frames > 0 ? options.frames : scene.frames;
     }

@@ -152,9 +152,31 @@ namespace {
         return any ? worst / scale : -1.0;
     }
 
+    /// Units per metre where that is a whole number (dividing by it rounds once), else 0.
+    double units_per_metre(const std::string& unit)
+    {
+        if (unit == "mm")
+            return 1000.0;
+        if (unit == "cm")
+            return 100.0;
+        if (unit == "m")
+            return 1.0;
+        return 0.0;
+    }
+
+    template <typename Matrix> void scale_lengths(Matrix& lengths, const std::string& unit)
+    {
+        const double per_metre = units_per_metre(unit);
+        if (per_metre > 0.0)
+            lengths /= per_metre;
+        else
+            lengths *= unit_scale(unit);
+    }
+
     // Rejects option values no bake can use, before any work.
     void check_options(const BakeOptions& options)
     {
+        unit_scale(options.unit);
         if (!(options.tet_size > 0 && options.tet_size < 1))
             throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
                 options.tet_size);
@@ -171,6 +193,7 @@ namespace {
     {
         stage(report, "read inputs", [&] {
             bake.surface = read_surface(options.surface);
+            scale_to_metres(bake.surface, options.unit);
             const SurfaceReport surface_report = validate_surface(bake.surface);
             require_closed_manifold(surface_report, options.surface);
             bake.surface_hash = hash_file(options.surface);
@@ -178,6 +201,7 @@ namespace {
             if (report.medial_generated)
                 return;
             input_medial = read_medial(options.medial);
+            scale_to_metres(input_medial, options.unit);
             if (input_medial.num_spheres() == 0)
                 throw_error("{}: the medial mesh has no sphere", options.medial);
             require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
@@ -377,6 +401,8 @@ namespace {
         json["quadratic"] = options.quadratic;
         json["weights_per_node"] = options.weights_per_node;
         json["region_alpha"] = options.region_alpha;
+        json["unit"] = options.unit;
+        json["unit_scale"] = unit_scale(options.unit);
         if (medial_generated) {
             json["spheres"] = options.spheres;
             json["medial_samples"] = options.generator.samples;
@@ -385,6 +411,27 @@ namespace {
     }
 
 } // namespace
+
+double unit_scale(const std::string& unit)
+{
+    if (unit == "in")
+        return 0.0254;
+    const double per_metre = units_per_metre(unit);
+    if (per_metre == 0.0)
+        throw_error("--unit {}: unknown length unit (mm, cm, m or in)", unit);
+    return 1.0 / per_metre;
+}
+
+void scale_to_metres(SurfaceMesh& surface, const std::string& unit)
+{
+    scale_lengths(surface.positions, unit);
+}
+
+void scale_to_metres(MedialMesh& medial, const std::string& unit)
+{
+    scale_lengths(medial.centers, unit);
+    scale_lengths(medial.radii, unit);
+}
 
 BakeData run_bake(const BakeOptions& options, BakeReport& report)
 {

@@ -19,6 +19,8 @@ struct BakeOptions {
     Index spheres = 0;
     MedialGeneratorOptions generator; ///< used when spheres > 0 (its `spheres` is overridden)
     std::string output; ///< .h5 bake file
+    /// Length unit of the input files (--unit): "mm", "cm", "m" or "in"; the bake is in metres.
+    std::string unit = "m";
     double tet_size = k_default_tet_size; ///< tet size as a fraction of the bbox diagonal
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
     int weights_per_node = 8; ///< K: largest weights kept per node
@@ -27,6 +29,16 @@ struct BakeOptions {
     /// tet size (preprocess/model_size/); empty: bake as given. run_bake itself ignores it.
     std::string error;
 };
+
+/// Metres per `unit` of --unit: mm 0.001, cm 0.01, m 1, in 0.0254. Throws mat::Error for any
+/// other unit.
+double unit_scale(const std::string& unit);
+
+/// Moves lengths in `unit` to metres (docs/mat-bake.md, "Units"): positions, or centers and
+/// radii. mm and cm divide by 1000 and 100, so a length that is a whole number of mm gives the
+/// same double as the same length written in metres.
+void scale_to_metres(SurfaceMesh& surface, const std::string& unit);
+void scale_to_metres(MedialMesh& medial, const std::string& unit);
 
 /// What a bake measured, for the report and for tests.
 struct BakeReport {

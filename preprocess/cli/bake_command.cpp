@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/cli.hpp"
 #include "common/log.hpp"
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
@@ -15,15 +16,20 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
     app.add_option(
            "surface", options.surface, "Closed surface to bake (OBJ, PLY, STL, OFF, glTF, ...)")
         ->check(CLI::ExistingFile);
-    CLI::Option* medial
-        = app.add_option("--medial", options.medial, "Its medial mesh (.ma, Q-MAT or the paper's)")
-              ->check(CLI::ExistingFile);
+    CLI::Option* medial = app.add_option("--medial", options.medial,
+                                 "Its medial mesh (.ma, Q-MAT or the paper's; Medial IPC's .mat)")
+                              ->check(CLI::ExistingFile);
     app.add_option("--spheres", options.spheres,
            "Generate the medial mesh with this many spheres instead of reading --medial")
-        ->check(CLI::PositiveNumber)
+        ->check(whole_number_at_least(1))
         ->excludes(medial);
     add_medial_generator_options(app, options.generator);
     app.add_option("-o,--output", options.output, "The bake file to write (.h5)");
+    app.add_option("--unit", options.unit,
+           "Length unit of SURFACE and --medial (centers and radii): mm, cm, m or in; the bake "
+           "is in metres")
+        ->check(CLI::IsMember({ "mm", "cm", "m", "in" }))
+        ->capture_default_str();
     app.add_option(
            "--tet-size", options.tet_size, "Tet size as a fraction of the bounding-box diagonal")
         ->capture_default_str();

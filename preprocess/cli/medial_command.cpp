@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/cli.hpp"
 #include "formats/medial_io.hpp"
 #include "formats/surface_io.hpp"
 
@@ -24,7 +25,8 @@ CLI::App* add_medial_command(CLI::App& app, MedialCommandOptions& options)
         ->check(CLI::ExistingFile);
     medial->add_option("-o,--output", options.output, "The .ma file to write")->required();
     medial->add_option("--spheres", options.generator.spheres, "Number of spheres")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(whole_number_at_least(1));
     add_medial_generator_options(*medial, options.generator);
     return medial;
 }

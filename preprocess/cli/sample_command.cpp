@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "common/cli.hpp"
 #include "common/timer.hpp"
 #include "preprocess/samples/sample_generator.hpp"
 
@@ -26,7 +27,8 @@ CLI::App* add_sample_command(CLI::App& app, SampleCommandOptions& options)
             "default)")
         ->capture_default_str();
     sample->add_option("--detail", options.detail, "Creature only: 1 to 5 (49 to 145 spheres)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(whole_number_in(1, 5));
     return sample;
 }
 

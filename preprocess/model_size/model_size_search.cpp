@@ -67,6 +67,7 @@ namespace {
             , m_generated(options.bake.medial.empty())
         {
             m_surface = read_surface(options.bake.surface);
+            scale_to_metres(m_surface, options.bake.unit);
             m_box = validate_surface(m_surface).bbox;
             m_diagonal = m_box.diagonal().norm();
             m_cases = standard_load_cases(m_box);

@@ -235,6 +235,36 @@ namespace {
         expect_error("3 0 1\n" + three + "s 0 1\n", 5, "'s' records have 3 values");
     }
 
+    // Medial IPC's .mat: the cones/slabs dialect with the tet node of each sphere after its
+    // radius (docs/mat-bake.md); the node is checked to be an integer and not kept.
+    TEST_F(MedialIo, ReadsMedialIpcMatFilesIgnoringTheTetNode)
+    {
+        const std::string mat = "# Medial IPC\n4 2 1\n"
+                                "v 0 0 0 0.5 12\nv 1 0 0 0.25 3\nv 0 1 0 0.5 0\nv 0 0 1 0.75 7\n"
+                                "c 0 3\nc 1 3\ns 0 1 2\n";
+        const MedialMesh mesh = read_medial(write_text("ipc.mat", mat));
+        MedialMesh expected;
+        expected.centers = MatX3::Zero(4, 3);
+        expected.centers(1, 0) = expected.centers(2, 1) = expected.centers(3, 2) = 1.0;
+        expected.radii = (VecX(4) << 0.5, 0.25, 0.5, 0.75).finished();
+        expected.cones = (MatX2i(2, 2) << 0, 3, 1, 3).finished();
+        expected.slabs = (MatX3i(1, 3) << 0, 1, 2).finished();
+        expect_equal(mesh, expected);
+        // The same mesh without the tet nodes reads the same.
+        std::string ma = mat;
+        for (const char* node : { " 12\n", " 3\n", " 0\n", " 7\n" })
+            ma.replace(ma.find(node), std::string(node).size(), "\n");
+        expect_equal(mesh, read_medial(write_text("ipc.ma", ma)));
+
+        expect_error("2 0 0\nv 0 0 0 1 4\nv 1 0 0 1 4.5\n", 3,
+            "tet node '4.5' of vertex 1 is not an integer");
+        expect_error("2 0 0\nv 0 0 0 1 4\nv 1 0 0 1\n", 3,
+            "'v' records have 5 values (v x y z r tet-node) since line 2, found 4");
+        expect_error("2 0 0\nv 0 0 0 1\nv 1 0 0 1 4\n", 3, "'v' records have 4 values");
+        expect_error("3 1 0\nv 0 0 0 1 0\nv 1 0 0 1 1\nv 0 1 0 1 2\ne 0 1\n", 5,
+            "'e' record (Q-MAT dialect) in a .mat file (5-value 'v' records from line 2)");
+    }
+
     TEST_F(MedialIo, RejectsNonNumericAndNonFiniteValues)
     {
         expect_error(

@@ -13,6 +13,7 @@
 #include "formats/surface_io.hpp"
 #include "formats/surface_validation.hpp"
 #include "surface_test_meshes.hpp"
+#include "tests/support/error_checks.hpp"
 #include "tests/support/temp_files.hpp"
 
 // assimp 5.2's STL loader leaks its half-built mesh when an ASCII file ends early (the garbage
@@ -61,6 +62,89 @@ namespace {
         EXPECT_NE(directory.find("directory"), std::string::npos) << directory;
         for (const std::string& message : { missing, unknown, no_faces, lines, directory })
             EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+
+    // A closed tetrahedron in OFF, with `header` in place of its "4 4 6" counts line and
+    // `faces` in place of its face lines.
+    std::string tetrahedron_off(const std::string& header = "4 4 6",
+        const std::string& faces = "3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n")
+    {
+        return "OFF\n" + header + "\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" + faces;
+    }
+
+    /// assimp 5.2 reads these with its own words ("Validation failed: aiMesh::mFaces[4].mIndices
+    /// is nullptr") or clamps the index: our message names the line, the element and the problem.
+    TEST_F(SurfaceIoErrors, MalformedOffNamesTheLineAndTheElement)
+    {
+        ASSERT_EQ(read_surface(write_text("tet.off", tetrahedron_off())).num_faces(), 4);
+        const std::string file = path("bad.off");
+        const auto expect = [&](const std::string& text, int line, const std::string& what) {
+            write_text("bad.off", text);
+            SCOPED_TRACE(text);
+            test::expect_line_error([&] { read_surface(file); }, file, line, what);
+        };
+        expect(tetrahedron_off("4 5 6"), 2,
+            "the header announces 4 vertices and 5 faces, but the file has only 4 face lines "
+            "after its 4 vertex lines");
+        expect("OFF\n9 1 0\n0 0 0\n1 0 0\n", 2,
+            "the header announces 9 vertices and 1 faces, but the file has only 2 lines after it");
+        expect(tetrahedron_off("4 4 6", "3 0 2 1\n3 0 1 3\n3 1 2 7\n3 0 3 2\n"), 9,
+            "face 2: vertex index 7 out of range: the file has 4 vertices (valid 0..3)");
+        expect(tetrahedron_off("4 4 6", "3 0 2 1\n3 0 -1 3\n3 1 2 3\n3 0 3 2\n"), 8,
+            "face 1: vertex index -1 out of range");
+        expect(tetrahedron_off("4 4 6", "3 0 2 1\n3 0 1\n3 1 2 3\n3 0 3 2\n"), 8,
+            "face 1 announces 3 vertices but lists 2");
+        expect(tetrahedron_off("4 4 6", "3 0 2 1\n3 0 1 3\n3 1 x 3\n3 0 3 2\n"), 9,
+            "face 2: vertex index 'x' is not an integer");
+        expect(
+            tetrahedron_off("4 4 6", "3 0 2 1\n0\n3 1 2 3\n3 0 3 2\n"), 8, "face 1 has 0 vertices");
+        expect(tetrahedron_off("4 4 6", "3 0 2 1\n12 0 1 2 3 0 1 2 3 0 1 2 3\n"), 8,
+            "face 1 has 12 vertices, more than the 9 the OFF reader takes");
+        expect("OFF\n4 4 6\n0 0 0\n1 0\n", 4, "vertex 1 has 2 coordinate(s), expected 3");
+        expect("OFF\n4 4 6\n0 0 0\n1 y 0\n", 4, "vertex 1: coordinate 'y' is not a number");
+        expect(tetrahedron_off("4 4"), 2,
+            "header: expected the 3 counts 'vertices faces edges', found 2 values");
+        expect(tetrahedron_off("4 -4 6"), 2, "header: count '-4' is not a non-negative integer");
+        expect(tetrahedron_off("4 0 0"), 2, "the header announces no faces");
+        expect(tetrahedron_off("4 4 6 7"), 2, "found 4 values");
+        expect("OFF\n", 2, "header: expected the 3 counts 'vertices faces edges', found none");
+        // A count far beyond what the file holds costs nothing before the message.
+        expect(tetrahedron_off("4000000000 4000000000 0"), 2,
+            "the header announces 4000000000 vertices and 4000000000 faces, but the file has only "
+            "8 lines after it");
+        // The counts may share the keyword's line; a file without the keyword is checked too;
+        // an OFF file under another extension is checked like one named .off.
+        expect("OFF 4 5 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n", 1,
+            "the header announces 4 vertices and 5 faces, but the file has only 1 face lines");
+        expect("4 5 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n", 1, "only 1 face lines");
+        const std::string renamed = write_text("tet.txt", tetrahedron_off("4 5 6"));
+        test::expect_line_error([&] { read_surface(renamed); }, renamed, 2, "only 4 face lines");
+    }
+
+    /// assimp 5.2 says "OBJ: vertex index out of range" or "OBJ: Invalid face index." without a
+    /// line: ours names the line and the face.
+    TEST_F(SurfaceIoErrors, BadObjIndicesNameTheLineAndTheFace)
+    {
+        const std::string vertices = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n";
+        ASSERT_EQ(
+            read_surface(write_text("tet.obj",
+                             vertices + "f 1 3 2\nf 1/1 2/2 4/4\nf -3//1 -2//1 -1//1\nf 1 4 3\n"))
+                .num_faces(),
+            4);
+        const std::string file = path("bad.obj");
+        const auto expect = [&](const std::string& text, int line, const std::string& what) {
+            write_text("bad.obj", text);
+            SCOPED_TRACE(text);
+            test::expect_line_error([&] { read_surface(file); }, file, line, what);
+        };
+        expect(vertices + "f 1 3 2\nf 1 2 9\n", 6,
+            "face 1: vertex index 9 out of range: the file has 4 vertices (valid 1..4)");
+        expect(vertices + "f 1 3 2\n# c\nf 1 0/1 4\n", 7,
+            "face 1: vertex index 0: OBJ indices start at 1");
+        expect("v 0 0 0\nf 1 -2 1\nv 1 0 0\n", 2,
+            "face 0: vertex index -2 out of range: it counts back from the 1 vertices before "
+            "this line");
+        expect(vertices + "l 1 2\nl 2 x\n", 6, "polyline 1: vertex index 'x' is not an integer");
     }
 
     /// Random bytes and truncations of valid files: a mesh with valid indices, or mat::Error.

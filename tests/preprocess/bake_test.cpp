@@ -6,11 +6,13 @@
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <sstream>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "common/error.hpp"
 #include "formats/bake_io.hpp"
@@ -18,6 +20,7 @@
 #include "preprocess/bake/bake_pipeline.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "preprocess/weights/handle_regions.hpp"
+#include "tests/support/temp_files.hpp"
 
 namespace mat {
 namespace {
@@ -278,6 +281,60 @@ namespace {
         }
     }
 
+    // `text` (cube.obj or cube.ma) with every number of its 'v' lines multiplied by `factor`.
+    std::string scale_v_lines(const std::string& text, double factor)
+    {
+        std::istringstream lines(text);
+        std::string line, out;
+        while (std::getline(lines, line)) {
+            if (line.rfind("v ", 0) == 0) {
+                std::istringstream values(line.substr(2));
+                line = "v";
+                for (double value = 0; values >> value;)
+                    line += fmt::format(" {:.17g}", value * factor);
+            }
+            out += line + "\n";
+        }
+        return out;
+    }
+
+    using BakeUnits = test::ScratchDirTest;
+
+    // --unit (docs/mat-bake.md, "Units"): the cube and its medial mesh written in millimetres and
+    // baked with --unit mm give the rest geometry of the same files in metres, to rounding.
+    TEST_F(BakeUnits, MillimetreInputBakesAsTheSameShapeInMetres)
+    {
+        BakeOptions options = cube_options();
+        options.surface
+            = write_text("cube_mm.obj", scale_v_lines(read_bytes(data_dir + "cube.obj"), 1000));
+        options.medial
+            = write_text("cube_mm.ma", scale_v_lines(read_bytes(data_dir + "cube.ma"), 1000));
+        options.unit = "mm";
+        BakeReport report;
+        const BakeData mm = run_bake(options, report);
+        const BakeData& m = cube_bake();
+        ASSERT_EQ(mm.surface.num_vertices(), m.surface.num_vertices());
+        EXPECT_LE((mm.surface.positions - m.surface.positions).cwiseAbs().maxCoeff(), 1e-12);
+        EXPECT_LE((mm.medial.centers - m.medial.centers).cwiseAbs().maxCoeff(), 1e-12);
+        EXPECT_LE((mm.medial.radii - m.medial.radii).cwiseAbs().maxCoeff(), 1e-12);
+        ASSERT_EQ(mm.tet_mesh.num_vertices(), m.tet_mesh.num_vertices());
+        ASSERT_EQ(mm.tet_mesh.num_tets(), m.tet_mesh.num_tets());
+        const double node_difference
+            = (mm.tet_mesh.positions - m.tet_mesh.positions).cwiseAbs().maxCoeff();
+        EXPECT_LE(node_difference, 1e-12);
+        EXPECT_NEAR(mm.rest_volumes.sum(), 1.0, 0.05); // about the unit cube, not 10^9 mm^3
+        EXPECT_NEAR(mm.rest_volumes.sum(), m.rest_volumes.sum(), 1e-12);
+        RecordProperty("max_node_difference_m", fmt::format("{:.3g}", node_difference));
+        const nlohmann::json json = nlohmann::json::parse(mm.options_json);
+        EXPECT_EQ(json.at("unit"), "mm");
+        EXPECT_EQ(json.at("unit_scale"), 0.001);
+        EXPECT_EQ(nlohmann::json::parse(m.options_json).at("unit"), "m");
+
+        EXPECT_EQ(unit_scale("in"), 0.0254);
+        EXPECT_EQ(unit_scale("cm"), 0.01);
+        EXPECT_THROW(unit_scale("ft"), Error);
+    }
+
     TEST(Bake, RejectsBadOptions)
     {
         BakeReport report;
@@ -286,6 +343,9 @@ namespace {
         EXPECT_THROW(run_bake(options, report), Error);
         options = cube_options();
         options.weights_per_node = 0;
+        EXPECT_THROW(run_bake(options, report), Error);
+        options = cube_options();
+        options.unit = "yards";
         EXPECT_THROW(run_bake(options, report), Error);
     }
 
