@@ -54,11 +54,8 @@ namespace {
     double largest_diagonal(const Simulation& simulation)
     {
         double diagonal = 0.0;
-        for (const Body& body : simulation.bodies()) {
-            const MatX3& rest = body.model->pd().rest_positions();
-            diagonal = std::max(
-                diagonal, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
-        }
+        for (const Body& body : simulation.bodies())
+            diagonal = std::max(diagonal, body.model->rest_diagonal());
         return diagonal;
     }
 

@@ -415,11 +415,8 @@ namespace {
         const Scene scene = read_scene(write_text("scene.json", text));
         Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         double smallest = std::numeric_limits<double>::infinity();
-        for (const Body& body : simulation.bodies()) {
-            const MatX3& rest = body.model->pd().rest_positions();
-            smallest = std::min(
-                smallest, (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm());
-        }
+        for (const Body& body : simulation.bodies())
+            smallest = std::min(smallest, body.model->rest_diagonal());
         const int steps = scene.frames * scene.steps_per_frame;
         const int last = std::max(0, steps - 10 * scene.steps_per_frame);
         double deepest = 0.0;

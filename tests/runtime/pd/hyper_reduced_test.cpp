@@ -28,10 +28,6 @@ namespace {
     {
         return test::pd_model_options();
     }
-    State run(PdSolver& solver, const Model& model, const State& start, int steps)
-    {
-        return test::run_steps(solver, start, steps);
-    }
 
     /// max_i |a_i - b_i| over the size of `rest`'s bounding box.
     double relative_difference(const MatX3& a, const MatX3& b, const MatX3& rest)
@@ -57,8 +53,8 @@ namespace {
             ASSERT_EQ(static_cast<Index>(hyper.local_stage().num_tets()), model.num_tets());
             State start = State::at_rest(model);
             start.velocities = twist_velocities(start.positions);
-            const State a = run(semi, model, start, 10);
-            const State b = run(hyper, model, start, 10);
+            const State a = test::run_steps(semi, start, 10);
+            const State b = test::run_steps(hyper, start, 10);
             const double difference
                 = relative_difference(a.positions, b.positions, start.positions);
             RecordProperty(pinned ? "pinned" : "free", fmt::format("{:.3g}", difference));
@@ -77,8 +73,8 @@ namespace {
         start.velocities = twist_velocities(start.positions);
         PdSolver semi = semi_reduced_solver(model);
         PdSolver full = full_solver(model);
-        const State semi_end = run(semi, model, start, 10);
-        const State full_end = run(full, model, start, 10);
+        const State semi_end = test::run_steps(semi, start, 10);
+        const State full_end = test::run_steps(full, start, 10);
         const double reduction
             = relative_difference(semi_end.positions, full_end.positions, start.positions);
         std::vector<double> errors;
@@ -88,7 +84,7 @@ namespace {
         for (const Index samples :
             { 2 * model.num_columns(), 8 * model.num_columns(), model.num_tets() / 2 }) {
             PdSolver hyper = hyper_reduced_solver(model, {}, samples);
-            const State end = run(hyper, model, start, 10);
+            const State end = test::run_steps(hyper, start, 10);
             ASSERT_TRUE(end.positions.allFinite());
             errors.push_back(
                 relative_difference(end.positions, semi_end.positions, start.positions));
@@ -111,7 +107,7 @@ namespace {
         options.gravity.setZero();
         PdSolver hyper = hyper_reduced_solver(model, options);
         const State rest = State::at_rest(model);
-        const State end = run(hyper, model, rest, 5);
+        const State end = test::run_steps(hyper, rest, 5);
         EXPECT_LT((end.positions - rest.positions).cwiseAbs().maxCoeff(), 1e-10);
         EXPECT_LT(end.velocities.cwiseAbs().maxCoeff(), 1e-10);
     }
@@ -126,7 +122,7 @@ namespace {
         for (const int threads : { 1, 2 }) {
             set_threads(threads);
             PdSolver hyper = hyper_reduced_solver(model);
-            ends.push_back(run(hyper, model, start, 5));
+            ends.push_back(test::run_steps(hyper, start, 5));
         }
         set_threads(0);
         EXPECT_EQ(ends[0].positions, ends[1].positions);
