@@ -4,10 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -22,9 +18,6 @@ namespace {
     /// The work lists are split into this many chunks (enough for load balance on a few
     /// threads), each with its own results: they do not depend on the thread split.
     constexpr int work_chunks = 64;
-    /// Columns of at most this many faces are scanned from their start, without a search.
-    constexpr int short_column = 32;
-
     bool boxes_overlap(const Box3& a, const Box3& b)
     {
         return (a.min().x() <= b.max().x()) & (a.min().y() <= b.max().y())
@@ -93,7 +86,7 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         for (Index p = 0; p < num_primitives; ++p)
             for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j)
                 data.node_primitive((*body.node_list)(j)) = static_cast<int>(p);
-        data.faces.reserve(static_cast<std::size_t>(body.faces->rows()));
+        data.grid.items.reserve(static_cast<std::size_t>(body.faces->rows()));
         data.nodes.reserve(static_cast<std::size_t>(body.node_list->size()));
         data.partners.reserve(bodies.size());
         data.active.reserve(static_cast<std::size_t>(num_primitives));
@@ -106,7 +99,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     ++m_run;
     for (BodyData& data : m_bodies) {
         data.active.clear();
-        data.faces.clear();
+        data.grid.items.clear();
         data.nodes.clear();
         data.partners.clear();
         data.self_pairs.clear();
@@ -125,9 +118,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     choose_sweep_axis();
     const int axis = m_axis;
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
-        size_columns(data, axis);
-        sort_into_columns(data, axis);
-        store_face_boxes(body, data);
+        file_faces(body, data, axis);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -187,7 +178,7 @@ void NarrowPhase::collect_active(const NarrowPhaseBody& body, BodyData& data) co
             const Box3 box = face_box(body, f);
             if (boxes_overlap(box, region)) {
                 stamp = m_run;
-                data.faces.push_back({ box, f });
+                data.grid.items.push_back({ box, f });
                 data.box.extend(box);
             }
         }
@@ -212,84 +203,17 @@ void NarrowPhase::choose_sweep_axis()
         all.sizes().maxCoeff(&m_axis);
 }
 
-void NarrowPhase::size_columns(BodyData& data, int axis)
+void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int axis)
 {
-    const int u = (axis + 1) % 3;
-    const int v = (axis + 2) % 3;
-    const Box3& box = data.box;
-    Vec3 width = Vec3::Zero();
-    for (const Item& item : data.faces)
-        width = width.cwiseMax(item.box.sizes());
-    data.face_width = width(axis);
-    data.width_u = width(u);
-    data.width_v = width(v);
-    data.origin_u = box.isEmpty() ? 0.0 : box.min()(u);
-    data.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
-    const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
-    const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
-    // Columns: no narrower than the widest triangle, at most max_columns per side.
-    constexpr int max_columns = 64;
-    data.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
-    data.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
-    const auto count = [](double size, double cell) {
-        const double n = size / cell; // NaN with non-finite positions: 1 column
-        if (!(n >= 0.0))
-            return 1;
-        return n < max_columns ? static_cast<int>(n) + 1 : max_columns;
-    };
-    data.columns_u = count(size_u, data.cell_u);
-    data.columns_v = count(size_v, data.cell_v);
-}
-
-void NarrowPhase::sort_into_columns(BodyData& data, int axis)
-{
-    const int u = (axis + 1) % 3;
-    const int v = (axis + 2) % 3;
-    // Counting sort by column, then each column along the sweep axis.
-    const int columns = data.columns_u * data.columns_v;
-    data.column_start.assign(static_cast<std::size_t>(columns + 1), 0);
-    for (Item& item : data.faces) {
-        item.column = data.column(item.box.min()(u), item.box.min()(v));
-        ++data.column_start[static_cast<std::size_t>(item.column + 1)];
-    }
-    for (int c = 0; c < columns; ++c)
-        data.column_start[static_cast<std::size_t>(c + 1)]
-            += data.column_start[static_cast<std::size_t>(c)];
-    data.fill.assign(data.column_start.begin(), data.column_start.end() - 1);
-    data.sorted.resize(data.faces.size());
-    for (const Item& item : data.faces)
-        data.sorted[static_cast<std::size_t>(data.fill[static_cast<std::size_t>(item.column)]++)]
-            = item;
-    std::swap(data.faces, data.sorted);
-    for (int c = 0; c < columns; ++c)
-        std::sort(data.faces.begin() + data.column_start[static_cast<std::size_t>(c)],
-            data.faces.begin() + data.column_start[static_cast<std::size_t>(c + 1)],
-            [axis](const Item& x, const Item& y) {
-                return x.box.min()[axis] < y.box.min()[axis]
-                    || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
-            });
-}
-
-void NarrowPhase::store_face_boxes(const NarrowPhaseBody& body, BodyData& data)
-{
-    const std::size_t active = data.faces.size();
-    for (int a = 0; a < 3; ++a) {
-        data.lo[static_cast<std::size_t>(a)].resize(active);
-        data.hi[static_cast<std::size_t>(a)].resize(active);
-    }
-    data.index.resize(active);
-    data.speed.resize(active);
-    for (std::size_t k = 0; k < active; ++k) {
-        const Item& item = data.faces[k];
-        for (int a = 0; a < 3; ++a) {
-            data.lo[static_cast<std::size_t>(a)][k] = item.box.min()[a];
-            data.hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
-        }
-        data.index[k] = item.index;
+    data.grid.build(axis);
+    // Per position in the grid, the fastest corner's speed (see face_out_of_reach).
+    data.speed.resize(data.grid.items.size());
+    for (std::size_t k = 0; k < data.grid.items.size(); ++k) {
         double speed = 0.0;
         if (body.velocities != nullptr)
             for (int c = 0; c < 3; ++c)
-                speed = std::max(speed, body.velocities->row((*body.faces)(item.index, c)).norm());
+                speed = std::max(
+                    speed, body.velocities->row((*body.faces)(data.grid.at(k).index, c)).norm());
         data.speed[k] = speed;
     }
 }
@@ -431,7 +355,7 @@ namespace {
         return true;
     }
 
-    /// Whether the box of face k (`lo`, `hi`: the faces' boxes, `speed`: their fastest corners) is
+    /// Whether the box of a face (`speed`: its fastest corner's) is
     /// farther from the node than the margin (plus what gravity adds) and what the node and the
     /// face's fastest corner can close in the step: then node_face_hit rejects the face too (a node
     /// behind a face is within its box grown by the margin on each axis, so within sqrt(3)
@@ -439,18 +363,15 @@ namespace {
     /// within near + lookahead x its approach speed, at most its own speed plus the fastest
     /// corner's), so skipping it changes nothing. The bound has a relative slack of 1e-9 against
     /// rounding.
-    bool face_out_of_reach(const NodeQuery& q, const std::array<std::vector<double>, 3>& lo,
-        const std::array<std::vector<double>, 3>& hi, const std::vector<double>& speed,
-        std::size_t k, double own_speed)
+    bool face_out_of_reach(const NodeQuery& q, const Box3& box, double speed, double own_speed)
     {
         double squared = 0.0;
-        for (std::size_t a = 0; a < 3; ++a) {
-            const double gap = std::max({ lo[a][k] - q.x[static_cast<Index>(a)],
-                q.x[static_cast<Index>(a)] - hi[a][k], 0.0 });
+        for (Index a = 0; a < 3; ++a) {
+            const double gap = std::max({ box.min()[a] - q.x[a], q.x[a] - box.max()[a], 0.0 });
             squared += gap * gap;
         }
         const double reach = (1.0 + 1e-9)
-            * (std::max(q.near, std::sqrt(3.0) * q.margin) + q.lookahead * (own_speed + speed[k]));
+            * (std::max(q.near, std::sqrt(3.0) * q.margin) + q.lookahead * (own_speed + speed));
         return squared > reach * reach;
     }
 
@@ -464,92 +385,6 @@ namespace {
             || (d == d_best && std::make_pair(bf, f) > std::make_pair(best.other_body, best.face));
     }
 } // namespace
-
-template <class Visit>
-void NarrowPhase::overlapping(int body, const Box3& box, double grow, const Visit& visit) const
-{
-    // The triangles that can overlap have their low corner in the columns from (box low -
-    // grow - widest triangle) to (box high + grow), and in each column, their low end on the
-    // sweep axis in the same range.
-    const BodyData& data = m_bodies[static_cast<std::size_t>(body)];
-    if (data.faces.empty())
-        return;
-    const Box3 grown(box.min().array() - grow, box.max().array() + grow);
-    if (!boxes_overlap(grown, data.box))
-        return;
-    const int axis = m_axis;
-    const int u = (axis + 1) % 3;
-    const int v = (axis + 2) % 3;
-    const auto index = [](double x, double origin, double cell, int count) {
-        const double at = std::floor((x - origin) / cell);
-        return !(at >= 0.0) ? 0 : at >= count - 1 ? count - 1 : static_cast<int>(at); // NaN: 0
-    };
-    const int u0 = index(grown.min()(u) - data.width_u, data.origin_u, data.cell_u, data.columns_u);
-    const int u1 = index(grown.max()(u), data.origin_u, data.cell_u, data.columns_u);
-    const int v0 = index(grown.min()(v) - data.width_v, data.origin_v, data.cell_v, data.columns_v);
-    const int v1 = index(grown.max()(v), data.origin_v, data.cell_v, data.columns_v);
-    // `from` a few ulps low: a face whose key is just below it cannot then overlap after
-    // rounding, so the scan from a short column's start and the search agree.
-    const double from = grown.min()[axis] - data.face_width
-        - 4.0 * std::numeric_limits<double>::epsilon()
-            * (std::abs(grown.min()[axis]) + data.face_width);
-    const double to = grown.max()[axis];
-    const double* keys = data.lo[static_cast<std::size_t>(axis)].data();
-    const double* lo_u = data.lo[static_cast<std::size_t>(u)].data();
-    const double* lo_v = data.lo[static_cast<std::size_t>(v)].data();
-    const double* hi_a = data.hi[static_cast<std::size_t>(axis)].data();
-    const double* hi_u = data.hi[static_cast<std::size_t>(u)].data();
-    const double* hi_v = data.hi[static_cast<std::size_t>(v)].data();
-    const int* face = data.index.data();
-#if defined(__AVX512F__)
-    const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
-    const __m512d low_u = _mm512_set1_pd(grown.min()(u)), high_u = _mm512_set1_pd(grown.max()(u));
-    const __m512d low_v = _mm512_set1_pd(grown.min()(v)), high_v = _mm512_set1_pd(grown.max()(v));
-#endif
-    for (int cv = v0; cv <= v1; ++cv)
-        for (int cu = u0; cu <= u1; ++cu) {
-            const int c = cv * data.columns_u + cu;
-            const int begin = data.column_start[static_cast<std::size_t>(c)];
-            const int end = data.column_start[static_cast<std::size_t>(c + 1)];
-            if (begin == end)
-                continue;
-            // A short column is scanned from its start (cheaper than the search).
-            int k = end - begin <= short_column
-                ? begin
-                : static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
-#if defined(__AVX512F__)
-            // Eight faces at a time, in order, up to the first whose key is past `to`.
-            for (; k < end; k += 8) {
-                const __mmask8 live
-                    = static_cast<__mmask8>(end - k >= 8 ? 0xFF : (1u << (end - k)) - 1u);
-                const __mmask8 before = _mm512_mask_cmp_pd_mask(
-                    live, _mm512_maskz_loadu_pd(live, keys + k), high_a, _CMP_LE_OQ);
-                __mmask8 m = _mm512_mask_cmp_pd_mask(
-                    before, low_a, _mm512_maskz_loadu_pd(live, hi_a + k), _CMP_LE_OQ);
-                m = _mm512_mask_cmp_pd_mask(
-                    m, _mm512_maskz_loadu_pd(live, lo_u + k), high_u, _CMP_LE_OQ);
-                m = _mm512_mask_cmp_pd_mask(
-                    m, low_u, _mm512_maskz_loadu_pd(live, hi_u + k), _CMP_LE_OQ);
-                m = _mm512_mask_cmp_pd_mask(
-                    m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
-                m = _mm512_mask_cmp_pd_mask(
-                    m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
-                for (unsigned bits = m; bits != 0; bits &= bits - 1) {
-                    const int at = k + static_cast<int>(__builtin_ctz(bits));
-                    visit(face[at], at);
-                }
-                if (before != live)
-                    break;
-            }
-#else
-            for (; k < end && keys[k] <= to; ++k)
-                if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
-                    & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
-                    & (grown.min()(v) <= hi_v[k]))
-                    visit(face[k], k);
-#endif
-        }
-}
 
 template <class Visit> void NarrowPhase::in_chunks(std::size_t n, const Visit& visit)
 {
@@ -579,7 +414,7 @@ void NarrowPhase::build_work_lists()
     m_work.clear();
     m_node_work.clear();
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-        for (std::size_t i = 0; i < m_bodies[b].faces.size(); ++i)
+        for (std::size_t i = 0; i < m_bodies[b].grid.items.size(); ++i)
             m_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
         for (std::size_t i = 0; i < m_bodies[b].nodes.size(); ++i)
             m_node_work.push_back({ static_cast<int>(b), static_cast<int>(i) });
@@ -591,7 +426,7 @@ void NarrowPhase::test_triangle(
 {
     const int ba = m_work[k][0];
     const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
-    const Item& item = data.faces[static_cast<std::size_t>(m_work[k][1])];
+    const Item& item = data.grid.at(static_cast<std::size_t>(m_work[k][1]));
     const int fa = item.index;
     const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
     const Vec3 a0 = corner(a, fa, 0);
@@ -601,7 +436,7 @@ void NarrowPhase::test_triangle(
         if (bb < ba)
             continue;
         const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-        overlapping(bb, item.box, 0.0, [&](int fb, int) {
+        m_bodies[static_cast<std::size_t>(bb)].grid.overlapping(item.box, 0.0, [&](int fb, int) {
             if (bb == ba
                 && (fb <= fa || share_corner(a, fa, b, fb)
                     || !self_pair_allowed(ba, fa, fb, false)))
@@ -654,11 +489,11 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.same_body = bf == bn;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         const double own_speed = query.velocity.norm();
-        overlapping(bf, item.box, query.reach, [&](int f, int k) {
+        faces.grid.overlapping(item.box, query.reach, [&](int f, int k) {
             // Out of reach of the node and this face's fastest corner (a cheap bound before
             // the exact tests: see face_out_of_reach).
-            if (face_out_of_reach(
-                    query, faces.lo, faces.hi, faces.speed, static_cast<std::size_t>(k), own_speed))
+            if (face_out_of_reach(query, faces.grid.at(static_cast<std::size_t>(k)).box,
+                    faces.speed[static_cast<std::size_t>(k)], own_speed))
                 return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "runtime/collision/face_grid.hpp"
 
 namespace mat {
 
@@ -104,11 +105,7 @@ public:
     long node_tests() const { return m_node_tests; }
 
     /// An active triangle or node with its box (a node: a point box).
-    struct Item {
-        Box3 box;
-        int index = 0; ///< face or node index in its body
-        int column = 0; ///< a face's column (see BodyData)
-    };
+    using Item = GridItem;
 
 private:
     struct BodyData {
@@ -120,34 +117,11 @@ private:
         VecXi face_primitive_indptr; ///< #F + 1, the primitives enclosing each face (CSR)
         VecXi face_primitives;
         VecXi node_primitive; ///< n, the primitive of each boundary node (-1: none)
-        std::vector<Item> faces; ///< active, sorted by box.min() on the sweep axis
         std::vector<Item> nodes; ///< active
-        // Active faces by column (the cell of the box's low corner in a grid across the sweep
-        // axis, on axes u = axis + 1 and v = axis + 2), then along the sweep axis.
-        double face_width = 0.0; ///< largest extent of an active face on the sweep axis
-        double width_u = 0.0, width_v = 0.0; ///< ... on u and v
-        double origin_u = 0.0, origin_v = 0.0; ///< low corner of the grid
-        double cell_u = 1.0, cell_v = 1.0; ///< cell sizes (>= the widths)
-        int columns_u = 1, columns_v = 1;
-        std::vector<int> column_start; ///< columns + 1, CSR into `faces`
-        /// Per face of `faces`, its box (low and high corner per axis) and its index, in
-        /// structure-of-arrays form for the queries; lo[axis] are the sort keys.
-        std::array<std::vector<double>, 3> lo, hi;
-        std::vector<int> index;
-        /// Per face of `faces`, the fastest of its corners (m/s; 0 at rest): a node's search
-        /// skips a face whose box is farther than the node and this face can close in the step.
+        /// The active faces by their boxes (its items are the active faces, in filed order).
+        FaceGrid grid;
+        /// Per position in `grid`, the speed of the face's fastest corner.
         std::vector<double> speed;
-        std::vector<int> fill; ///< columns, scatter cursors
-        std::vector<Item> sorted; ///< workspace of the counting sort
-
-        int column(double at_u, double at_v) const
-        {
-            const auto clamp = [](double x, int count) {
-                return !(x >= 0.0) ? 0 : x >= count - 1 ? count - 1 : static_cast<int>(x); // NaN: 0
-            };
-            return clamp(std::floor((at_v - origin_v) / cell_v), columns_v) * columns_u
-                + clamp(std::floor((at_u - origin_u) / cell_u), columns_u);
-        }
         std::vector<int> partners; ///< bodies with a colliding pair, increasing (may hold itself)
         std::vector<std::uint64_t> self_pairs; ///< (low primitive << 32) | high, sorted
     };
@@ -172,15 +146,9 @@ private:
     void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
     /// m_axis: the longest side of the box of every body's active triangles.
     void choose_sweep_axis();
-    /// The grid of columns across `axis` over a body's active triangles.
-    static void size_columns(BodyData& data, int axis);
-    /// Sorts a body's active triangles by column, then along `axis` within a column.
-    static void sort_into_columns(BodyData& data, int axis);
-    /// Copies the sorted triangles' boxes and indices into the structure-of-arrays lists.
-    static void store_face_boxes(const NarrowPhaseBody& body, BodyData& data);
+    /// Files a body's active triangles in its grid along `axis`, with their corners' speeds.
+    static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
-    template <class Visit>
-    void overlapping(int body, const Box3& box, double grow, const Visit& visit) const;
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
     /// Empties every chunk's scratch.

@@ -1,0 +1,155 @@
+#pragma once
+// The narrow phase's search structure over one body's active triangles (docs/method.md, section
+// 4, step 5): each triangle is filed, by the low corner of its box, in a grid of columns across
+// a sweep axis (cells no narrower than the widest box, at most 64 per side), and sorted along
+// that axis within its column. A query box then visits the triangles whose boxes overlap it,
+// looking only in the neighbouring columns and, within a column, from a binary search (or the
+// start of a short column) to the first box past it; with AVX-512, eight boxes per comparison.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
+#include "common/eigen_types.hpp"
+
+namespace mat {
+
+/// An active triangle or node with its box (a node: a point box).
+struct GridItem {
+    Box3 box;
+    int index = 0; ///< face or node index in its body
+    int column = 0; ///< a face's column in its FaceGrid
+};
+
+class FaceGrid {
+public:
+    /// The items to file, with their boxes; build() sorts them.
+    std::vector<GridItem> items;
+
+    /// Files `items` along sweep axis `axis`, sorted by (column, low end on the axis, index).
+    void build(int axis);
+    /// The box of all the boxes (empty if there are none).
+    const Box3& box() const { return m_box; }
+    /// The item filed at position k (the order of the visits' positions).
+    const GridItem& at(std::size_t k) const { return items[k]; }
+
+    /// Calls visit(index, position) for every item whose box overlaps `box` grown by
+    /// `grow` on every side (non-finite coordinates fall in the first column).
+    template <class Visit> void overlapping(const Box3& box, double grow, const Visit& visit) const;
+
+private:
+    /// Columns of at most this many items are scanned from their start, without a search.
+    static constexpr int short_column = 32;
+
+    void size_columns();
+    void sort_into_columns();
+    void store_boxes();
+    int column(double at_u, double at_v) const;
+
+    int m_axis = 0;
+    Box3 m_box;
+    double m_width = 0.0; ///< largest extent of a box on the sweep axis
+    double m_width_u = 0.0, m_width_v = 0.0; ///< ... on u = axis + 1 and v = axis + 2
+    double m_origin_u = 0.0, m_origin_v = 0.0; ///< low corner of the grid
+    double m_cell_u = 1.0, m_cell_v = 1.0; ///< cell sizes (>= the widths)
+    int m_columns_u = 1, m_columns_v = 1;
+    std::vector<int> m_column_start; ///< columns + 1, CSR into `items`
+    /// The boxes in filed order, by axis, structure of arrays (the scans' loads).
+    std::array<std::vector<double>, 3> m_lo, m_hi;
+    std::vector<int> m_index;
+    std::vector<int> m_fill; ///< columns, scatter cursors
+    std::vector<GridItem> m_sorted; ///< workspace of the counting sort
+};
+
+template <class Visit>
+void FaceGrid::overlapping(const Box3& box, double grow, const Visit& visit) const
+{
+    // The boxes that can overlap have their low corner in the columns from (box low -
+    // grow - widest box) to (box high + grow), and in each column, their low end on the sweep
+    // axis in the same range.
+    if (items.empty())
+        return;
+    const Box3 grown(box.min().array() - grow, box.max().array() + grow);
+    if (!((grown.min().array() <= m_box.max().array()).all()
+            && (m_box.min().array() <= grown.max().array()).all()))
+        return;
+    const int axis = m_axis;
+    const int u = (axis + 1) % 3;
+    const int v = (axis + 2) % 3;
+    const auto index = [](double x, double origin, double cell, int count) {
+        const double at = std::floor((x - origin) / cell);
+        return !(at >= 0.0) ? 0 : at >= count - 1 ? count - 1 : static_cast<int>(at); // NaN: 0
+    };
+    const int u0 = index(grown.min()(u) - m_width_u, m_origin_u, m_cell_u, m_columns_u);
+    const int u1 = index(grown.max()(u), m_origin_u, m_cell_u, m_columns_u);
+    const int v0 = index(grown.min()(v) - m_width_v, m_origin_v, m_cell_v, m_columns_v);
+    const int v1 = index(grown.max()(v), m_origin_v, m_cell_v, m_columns_v);
+    // `from` a few ulps low: a box whose key is just below it cannot then overlap after
+    // rounding, so the scan from a short column's start and the search agree.
+    const double from = grown.min()[axis] - m_width
+        - 4.0 * std::numeric_limits<double>::epsilon() * (std::abs(grown.min()[axis]) + m_width);
+    const double to = grown.max()[axis];
+    const double* keys = m_lo[static_cast<std::size_t>(axis)].data();
+    const double* lo_u = m_lo[static_cast<std::size_t>(u)].data();
+    const double* lo_v = m_lo[static_cast<std::size_t>(v)].data();
+    const double* hi_a = m_hi[static_cast<std::size_t>(axis)].data();
+    const double* hi_u = m_hi[static_cast<std::size_t>(u)].data();
+    const double* hi_v = m_hi[static_cast<std::size_t>(v)].data();
+    const int* face = m_index.data();
+#if defined(__AVX512F__)
+    const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
+    const __m512d low_u = _mm512_set1_pd(grown.min()(u)), high_u = _mm512_set1_pd(grown.max()(u));
+    const __m512d low_v = _mm512_set1_pd(grown.min()(v)), high_v = _mm512_set1_pd(grown.max()(v));
+#endif
+    for (int cv = v0; cv <= v1; ++cv)
+        for (int cu = u0; cu <= u1; ++cu) {
+            const int c = cv * m_columns_u + cu;
+            const int begin = m_column_start[static_cast<std::size_t>(c)];
+            const int end = m_column_start[static_cast<std::size_t>(c + 1)];
+            if (begin == end)
+                continue;
+            // A short column is scanned from its start (cheaper than the search).
+            int k = end - begin <= short_column
+                ? begin
+                : static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
+#if defined(__AVX512F__)
+            // Eight boxes at a time, in order, up to the first whose key is past `to`.
+            for (; k < end; k += 8) {
+                const __mmask8 live
+                    = static_cast<__mmask8>(end - k >= 8 ? 0xFF : (1u << (end - k)) - 1u);
+                const __mmask8 before = _mm512_mask_cmp_pd_mask(
+                    live, _mm512_maskz_loadu_pd(live, keys + k), high_a, _CMP_LE_OQ);
+                __mmask8 m = _mm512_mask_cmp_pd_mask(
+                    before, low_a, _mm512_maskz_loadu_pd(live, hi_a + k), _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, _mm512_maskz_loadu_pd(live, lo_u + k), high_u, _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, low_u, _mm512_maskz_loadu_pd(live, hi_u + k), _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
+                m = _mm512_mask_cmp_pd_mask(
+                    m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
+                for (unsigned bits = m; bits != 0; bits &= bits - 1) {
+                    const int at = k + static_cast<int>(__builtin_ctz(bits));
+                    visit(face[at], at);
+                }
+                if (before != live)
+                    break;
+            }
+#else
+            for (; k < end && keys[k] <= to; ++k)
+                if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
+                    & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
+                    & (grown.min()(v) <= hi_v[k]))
+                    visit(face[k], k);
+#endif
+        }
+}
+
+} // namespace mat
