@@ -206,16 +206,31 @@ void NarrowPhase::choose_sweep_axis()
 void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int axis)
 {
     data.grid.build(axis);
-    // Per position in the grid, the fastest corner's speed (see face_out_of_reach).
-    data.speed.resize(data.grid.items.size());
-    for (std::size_t k = 0; k < data.grid.items.size(); ++k) {
-        double speed = 0.0;
-        if (body.velocities != nullptr)
-            for (int c = 0; c < 3; ++c)
-                speed = std::max(
-                    speed, body.velocities->row((*body.faces)(data.grid.at(k).index, c)).norm());
-        data.speed[k] = speed;
+    // Per position in the grid, the corners' motion (see face_out_of_reach and
+    // relative_out_of_reach), then the body's mean velocity and spread over its active faces.
+    const std::size_t n = data.grid.items.size();
+    data.motion.assign(n, BodyData::FaceMotion {});
+    data.mean_velocity = Vec3::Zero();
+    data.velocity_spread = 0.0;
+    if (body.velocities == nullptr || n == 0)
+        return;
+    for (std::size_t k = 0; k < n; ++k) {
+        BodyData::FaceMotion& motion = data.motion[k];
+        std::array<Vec3, 3> v;
+        for (int c = 0; c < 3; ++c) {
+            v[static_cast<std::size_t>(c)]
+                = body.velocities->row((*body.faces)(data.grid.at(k).index, c)).transpose();
+            motion.speed = std::max(motion.speed, v[static_cast<std::size_t>(c)].norm());
+        }
+        motion.mean = (v[0] + v[1] + v[2]) / 3.0;
+        for (const Vec3& corner_velocity : v)
+            motion.spread = std::max(motion.spread, (corner_velocity - motion.mean).norm());
+        data.mean_velocity += motion.mean;
     }
+    data.mean_velocity /= static_cast<double>(n);
+    for (const BodyData::FaceMotion& motion : data.motion)
+        data.velocity_spread = std::max(
+            data.velocity_spread, (motion.mean - data.mean_velocity).norm() + motion.spread);
 }
 
 bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const
@@ -355,24 +370,36 @@ namespace {
         return true;
     }
 
-    /// Whether the box of a face (`speed`: its fastest corner's) is
-    /// farther from the node than the margin (plus what gravity adds) and what the node and the
-    /// face's fastest corner can close in the step: then node_face_hit rejects the face too (a node
-    /// behind a face is within its box grown by the margin on each axis, so within sqrt(3)
-    /// margins of it, and a node in front is taken only
-    /// within near + lookahead x its approach speed, at most its own speed plus the fastest
-    /// corner's), so skipping it changes nothing. The bound has a relative slack of 1e-9 against
-    /// rounding.
-    bool face_out_of_reach(const NodeQuery& q, const Box3& box, double speed, double own_speed)
+    /// The bounds that let a node skip a face before the exact tests (node_face_hit). A face
+    /// is rejected by node_face_hit when the distance from the node to its box exceeds both
+    /// sqrt(3) margins (a node behind a face is taken only within its box grown by the margin on
+    /// each axis) and near + lookahead x the approach speed to the closest point (a node in
+    /// front), and that approach is at most |v_node - v_point| for a point of the face. Two
+    /// bounds of that speed: the node's speed plus the face's fastest corner's, and the node's
+    /// velocity relative to the face's mean corner velocity plus the corners' spread about it
+    /// (the point's velocity lies between the corners'). Either rejection changes nothing. Each
+    /// bound has a relative slack of 1e-9, plus `slack` (m) against the rounding of the means.
+    struct Reach {
+        double hold = 0.0; ///< max(near, sqrt(3) margin)
+        double own_speed = 0.0;
+        double slack = 0.0;
+    };
+
+    bool face_out_of_reach(const NodeQuery& q, const Reach& r, const Box3& box,
+        const Vec3& mean_velocity, double speed, double spread)
     {
         double squared = 0.0;
         for (Index a = 0; a < 3; ++a) {
             const double gap = std::max({ box.min()[a] - q.x[a], q.x[a] - box.max()[a], 0.0 });
             squared += gap * gap;
         }
-        const double reach = (1.0 + 1e-9)
-            * (std::max(q.near, std::sqrt(3.0) * q.margin) + q.lookahead * (own_speed + speed));
-        return squared > reach * reach;
+        const double reach = (1.0 + 1e-9) * (r.hold + q.lookahead * (r.own_speed + speed));
+        if (squared > reach * reach)
+            return true;
+        const double relative
+            = (1.0 + 1e-9) * (r.hold + q.lookahead * ((q.velocity - mean_velocity).norm() + spread))
+            + r.slack;
+        return squared > relative * relative;
     }
 
     /// Whether a hit at `signed_distance` on triangle f of body bf loses to `best`: further
@@ -488,12 +515,22 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.reach = query.near + lookahead * query.velocity.norm() + other.motion;
         query.same_body = bf == bn;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
-        const double own_speed = query.velocity.norm();
-        faces.grid.overlapping(item.box, query.reach, [&](int f, int k) {
-            // Out of reach of the node and this face's fastest corner (a cheap bound before
-            // the exact tests: see face_out_of_reach).
-            if (face_out_of_reach(query, faces.grid.at(static_cast<std::size_t>(k)).box,
-                    faces.speed[static_cast<std::size_t>(k)], own_speed))
+        // Only the faces that the node's velocity relative to the body's active faces (their
+        // mean velocity, plus the spread about it) can reach: see face_out_of_reach.
+        Reach r;
+        r.hold = std::max(query.near, std::sqrt(3.0) * margin);
+        r.own_speed = query.velocity.norm();
+        r.slack
+            = 1e-9 * lookahead * (r.own_speed + faces.mean_velocity.norm() + faces.velocity_spread);
+        const double relative = (1.0 + 1e-9)
+                * (r.hold
+                    + lookahead
+                        * ((query.velocity - faces.mean_velocity).norm() + faces.velocity_spread))
+            + r.slack;
+        faces.grid.overlapping(item.box, std::min(query.reach, relative), [&](int f, int k) {
+            const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
+            if (face_out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box,
+                    motion.mean, motion.speed, motion.spread))
                 return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;

@@ -7,8 +7,10 @@
 //     two bodies that have a colliding primitive pair, and within one body (self) when the two
 //     triangles share no vertex and belong to a colliding self pair of primitives;
 //   - each node against the triangles of the other bodies it collides with (and of its own body
-//     through a colliding self pair): the closest triangle within the margin plus both bodies'
-//     motion bound for the step (or behind it).
+//     through a colliding self pair): the closest triangle within the margin, or within what
+//     the node may close in the step at its approach speed, or behind it (docs/method.md,
+//     "Speculative contacts"; the search is bounded by the node's velocity relative to the
+//     other body's triangles).
 // Neighbouring primitives enclose many of the same triangles, so testing pair by pair repeats
 // work (on the benchmark's creatures, 1795 primitive pairs gave 6372 triangle candidates for
 // 2359 distinct ones, and filtering each pair's lists cost more than the tests). Instead, per
@@ -120,8 +122,19 @@ private:
         std::vector<Item> nodes; ///< active
         /// The active faces by their boxes (its items are the active faces, in filed order).
         FaceGrid grid;
-        /// Per position in `grid`, the speed of the face's fastest corner.
-        std::vector<double> speed;
+        /// The motion of a face's corners: the fastest corner's speed, their mean velocity and
+        /// how far a corner's velocity is from it at most.
+        struct FaceMotion {
+            double speed = 0.0;
+            Vec3 mean = Vec3::Zero();
+            double spread = 0.0;
+        };
+        /// Per position in `grid`.
+        std::vector<FaceMotion> motion;
+        /// The mean of the active faces' mean velocities, and the most a velocity of a point of
+        /// an active face differs from it (via its face's mean: |mean_k - this| + spread_k).
+        Vec3 mean_velocity = Vec3::Zero();
+        double velocity_spread = 0.0;
         std::vector<int> partners; ///< bodies with a colliding pair, increasing (may hold itself)
         std::vector<std::uint64_t> self_pairs; ///< (low primitive << 32) | high, sorted
     };
@@ -146,7 +159,7 @@ private:
     void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
     /// m_axis: the longest side of the box of every body's active triangles.
     void choose_sweep_axis();
-    /// Files a body's active triangles in its grid along `axis`, with their corners' speeds.
+    /// Files a body's active triangles in its grid along `axis`, with their corners' motion.
     static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
