@@ -11,7 +11,7 @@
 #include "formats/bake_io.hpp"
 #include "formats/medial_io.hpp"
 #include "formats/surface_io.hpp"
-#include "formats/surface_validation.hpp"
+#include "preprocess/bake/bake_inputs.hpp"
 #include "preprocess/basis/handle_basis.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "preprocess/embedding/tet_embedding.hpp"
@@ -187,25 +187,25 @@ namespace {
                         "read it, not both");
     }
 
-    // Step 1: reads and checks the surface, and the medial mesh unless it is to be generated.
+    // Step 1: reads and checks the surface, and the medial mesh unless it is to be generated,
+    // with the checks of `mat-bake check` (bake_inputs.hpp), then moves them to metres.
     void read_inputs(
         const BakeOptions& options, BakeData& bake, BakeReport& report, MedialMesh& input_medial)
     {
         stage(report, "read inputs", [&] {
-            bake.surface = read_surface(options.surface);
+            CheckedSurface checked = inspect_surface(options.surface);
+            require_bake_surface(checked, options.surface, options.checks);
+            if (!report.medial_generated) {
+                input_medial = read_medial(options.medial);
+                require_bake_medial(input_medial, options.medial, checked.surface, options.surface);
+                scale_to_metres(input_medial, options.unit);
+                bake.medial_hash = hash_file(options.medial);
+            }
+            bake.surface = std::move(checked.surface);
             scale_to_metres(bake.surface, options.unit);
-            const SurfaceReport surface_report = validate_surface(bake.surface);
-            require_closed_manifold(surface_report, options.surface);
             bake.surface_hash = hash_file(options.surface);
-            report.bbox_diagonal = surface_report.bbox.diagonal().norm();
-            if (report.medial_generated)
-                return;
-            input_medial = read_medial(options.medial);
-            scale_to_metres(input_medial, options.unit);
-            if (input_medial.num_spheres() == 0)
-                throw_error("{}: the medial mesh has no sphere", options.medial);
-            require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
-            bake.medial_hash = hash_file(options.medial);
+            const MatX3& x = bake.surface.positions;
+            report.bbox_diagonal = (x.colwise().maxCoeff() - x.colwise().minCoeff()).norm();
         });
     }
 

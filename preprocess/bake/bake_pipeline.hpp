@@ -7,6 +7,7 @@
 
 #include "common/bake_data.hpp"
 #include "common/timer.hpp"
+#include "preprocess/bake/bake_inputs.hpp"
 #include "preprocess/medial/medial_generator.hpp"
 #include "preprocess/meshing/cgal_mesh3.hpp"
 
@@ -14,6 +15,7 @@ namespace mat {
 
 struct BakeOptions {
     std::string surface; ///< closed surface file
+    InputChecks checks; ///< what the input checks let through (--allow-self-intersections)
     std::string medial; ///< .ma file
     /// > 0: generate the medial mesh with this many spheres instead of reading `medial`
     Index spheres = 0;

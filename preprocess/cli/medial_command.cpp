@@ -4,7 +4,7 @@
 
 #include "common/cli.hpp"
 #include "formats/medial_io.hpp"
-#include "formats/surface_io.hpp"
+#include "preprocess/cli/check_command.hpp"
 
 namespace mat {
 
@@ -28,12 +28,15 @@ CLI::App* add_medial_command(CLI::App& app, MedialCommandOptions& options)
         ->capture_default_str()
         ->check(whole_number_at_least(1));
     add_medial_generator_options(*medial, options.generator);
+    add_input_check_options(*medial, options.checks);
     return medial;
 }
 
 void run_medial_command(const MedialCommandOptions& options)
 {
-    const SurfaceMesh surface = read_surface(options.surface);
+    const CheckedSurface checked = inspect_surface(options.surface);
+    require_bake_surface(checked, options.surface, options.checks);
+    const SurfaceMesh& surface = checked.surface;
     MedialGeneratorOptions generator = options.generator;
     generator.surface_name = options.surface;
     MedialQuality quality;
