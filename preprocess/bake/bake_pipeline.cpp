@@ -55,10 +55,12 @@ Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, 
 
 namespace {
 
-    // A stage: a progress line on a terminal, a log line, and a row of the report.
+    // A stage: a progress line on a terminal (and every 15 s in logs), a log line, and a row of
+    // the report.
     template <typename Body> void stage(BakeReport& report, const char* name, Body&& body)
     {
         Timer timer;
+        const ProgressHeartbeat heartbeat(name);
         ProgressBar bar(name, 1);
         body();
         bar.advance();
@@ -180,6 +182,8 @@ namespace {
         if (!(options.tet_size > 0 && options.tet_size < 1))
             throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
                 options.tet_size);
+        if (options.max_tet_vertices < 1)
+            throw_error("--max-tet-vertices must be >= 1, got {}", options.max_tet_vertices);
         if (options.weights_per_node < 1)
             throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
         if (options.spheres > 0 && !options.medial.empty())
@@ -243,8 +247,10 @@ namespace {
     void tetrahedralize_interior(const BakeOptions& options, BakeData& bake, BakeReport& report)
     {
         stage(report, "tetrahedralize", [&] {
-            bake.tet_mesh = tetrahedralize(
-                bake.surface, tetrahedralize_options_for(report.bbox_diagonal, options.tet_size));
+            TetrahedralizeOptions tet_options
+                = tetrahedralize_options_for(report.bbox_diagonal, options.tet_size);
+            tet_options.max_vertices = options.max_tet_vertices;
+            bake.tet_mesh = tetrahedralize(bake.surface, tet_options);
             const TetQuality quality = tet_quality(bake.tet_mesh);
             report.tets = quality.num_tets;
             report.nodes = quality.num_vertices;

@@ -35,6 +35,10 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
     app.add_option(
            "--tet-size", options.tet_size, "Tet size as a fraction of the bounding-box diagonal")
         ->capture_default_str();
+    app.add_option("--max-tet-vertices", options.max_tet_vertices,
+           "Bound on the tet mesher's vertices; past it the bake stops with an error")
+        ->check(whole_number_at_least(1))
+        ->capture_default_str();
     app.add_option("--quadratic", options.quadratic,
            "Quadratic (30 DOF) handles: all, none, or a list of sphere indices 0,4,7")
         ->capture_default_str();
