@@ -37,7 +37,7 @@ struct MedialGeneratorOptions {
     double min_slab_angle = 2.0;
     /// Bound on the simplification's work: surface distance queries per sphere of the inner
     /// Voronoi complex (docs/mat-bake.md, "Bounds"); past it the generator stops with an error.
-    double query_bound = 1000.0;
+    double query_bound = 200.0;
     Index quality_samples = 50000; ///< surface points for the Hausdorff distance and coverage
     int quality_directions = 48; ///< rays per explored sphere for the envelope -> surface side
     std::string surface_name = "surface"; ///< names the surface in error messages
