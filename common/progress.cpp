@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <unistd.h>
 
+#include "common/log.hpp"
+
 namespace mat {
 
 namespace {
@@ -78,6 +80,37 @@ void ProgressBar::draw(std::int64_t done)
     std::fprintf(stderr, "\r%-24s [%.*s%*s] %3d%%", m_label.c_str(), filled,
         "##############################", width - filled, "", static_cast<int>(fraction * 100));
     std::fflush(stderr);
+}
+
+ProgressHeartbeat::ProgressHeartbeat(std::string label, double interval_seconds)
+    : m_label(std::move(label))
+    , m_interval(interval_seconds)
+    , m_thread([this] { run(); })
+{
+}
+
+ProgressHeartbeat::~ProgressHeartbeat()
+{
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        m_stop = true;
+    }
+    m_wake.notify_all();
+    m_thread.join();
+}
+
+void ProgressHeartbeat::run()
+{
+    const auto start = std::chrono::steady_clock::now();
+    const auto interval = std::chrono::duration<double>(m_interval);
+    std::unique_lock<std::mutex> lock(m_mutex);
+    for (int beat = 1;; ++beat) {
+        const auto due
+            = start + std::chrono::duration_cast<std::chrono::nanoseconds>(beat * interval);
+        if (m_wake.wait_until(lock, due, [this] { return m_stop; }))
+            return;
+        logger().info("{}: still running after {:.0f} s", m_label, beat * m_interval);
+    }
 }
 
 } // namespace mat

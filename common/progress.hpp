@@ -3,9 +3,11 @@
 // CI). Updates are cheap and thread-safe; redraws are throttled.
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <mutex>
 #include <string>
+#include <thread>
 
 namespace mat {
 
@@ -36,6 +38,27 @@ private:
     std::atomic<std::int64_t> m_last_draw_ms { -1000 };
     std::mutex m_draw_mutex;
     bool m_finished = false;
+};
+
+/// The progress line of a long stage in logs and pipes, where bars do not draw (docs/mat-bake.md,
+/// "Bounds"): while it lives, a thread logs "LABEL: still running after N s" at info level every
+/// `interval_seconds` (none for a stage that ends sooner). It only logs, so results stay the same.
+class ProgressHeartbeat {
+public:
+    explicit ProgressHeartbeat(std::string label, double interval_seconds = 15.0);
+    ~ProgressHeartbeat();
+    ProgressHeartbeat(const ProgressHeartbeat&) = delete;
+    ProgressHeartbeat& operator=(const ProgressHeartbeat&) = delete;
+
+private:
+    void run();
+
+    std::string m_label;
+    double m_interval;
+    bool m_stop = false;
+    std::mutex m_mutex;
+    std::condition_variable m_wake;
+    std::thread m_thread;
 };
 
 } // namespace mat

@@ -431,10 +431,15 @@ std::string SurfaceReport::summary(const std::string& file) const
         out += fmt::format("  {}{}: {}{}\n", !c.blocking && issue.count > 0 ? "(warning) " : "",
             c.many, issue.count, issue.count > 0 ? ", e.g. " + issue.description : std::string());
     }
+    if (self_intersections_tested)
+        out += fmt::format("  intersecting face pairs: {}{}\n", self_intersections.count,
+            self_intersections ? ", e.g. " + self_intersections.description : std::string());
     if (num_faces == 0)
         out += "  verdict: not usable as a solid: no faces";
     else if (first_blocking)
         out += fmt::format("  verdict: not usable as a solid: {}", first_blocking->name);
+    else if (self_intersections)
+        out += "  verdict: closed, manifold and outward-oriented, but intersects itself";
     else
         out += "  verdict: closed, manifold and outward-oriented";
     return out;

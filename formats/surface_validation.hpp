@@ -41,10 +41,17 @@ struct SurfaceReport {
     SurfaceIssue components; ///< count = #components when there are several; example: component
     SurfaceIssue unreferenced_vertices; ///< vertices no face uses; example: vertex
 
+    /// Pairs of faces that intersect. validate_surface() does not look for them: mat-bake's
+    /// exact test (preprocess/bake/bake_inputs.hpp) fills this in for a closed manifold and sets
+    /// self_intersections_tested; example: the pair's first face, described with the second.
+    SurfaceIssue self_intersections;
+    bool self_intersections_tested = false;
+
     /// True if no blocking class occurs and there is at least one face.
     bool is_closed_manifold() const;
 
-    /// Several lines for `mat-bake check`: sizes, bbox, volume, then one line per class.
+    /// Several lines for `mat-bake check`: sizes, bbox, volume, then one line per class (and
+    /// one for the self-intersections when they were looked for).
     std::string summary(const std::string& file) const;
 };
 

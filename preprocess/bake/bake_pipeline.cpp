@@ -11,7 +11,7 @@
 #include "formats/bake_io.hpp"
 #include "formats/medial_io.hpp"
 #include "formats/surface_io.hpp"
-#include "formats/surface_validation.hpp"
+#include "preprocess/bake/bake_inputs.hpp"
 #include "preprocess/basis/handle_basis.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "preprocess/embedding/tet_embedding.hpp"
@@ -55,10 +55,12 @@ Eigen::Matrix<bool, Eigen::Dynamic, 1> parse_quadratic(const std::string& text, 
 
 namespace {
 
-    // A stage: a progress line on a terminal, a log line, and a row of the report.
+    // A stage: a progress line on a terminal (and every 15 s in logs), a log line, and a row of
+    // the report.
     template <typename Body> void stage(BakeReport& report, const char* name, Body&& body)
     {
         Timer timer;
+        const ProgressHeartbeat heartbeat(name);
         ProgressBar bar(name, 1);
         body();
         bar.advance();
@@ -180,6 +182,8 @@ namespace {
         if (!(options.tet_size > 0 && options.tet_size < 1))
             throw_error("--tet-size must be in (0, 1) (a fraction of the bbox diagonal), got {}",
                 options.tet_size);
+        if (options.max_tet_vertices < 1)
+            throw_error("--max-tet-vertices must be >= 1, got {}", options.max_tet_vertices);
         if (options.weights_per_node < 1)
             throw_error("--weights-per-node must be >= 1, got {}", options.weights_per_node);
         if (options.spheres > 0 && !options.medial.empty())
@@ -187,25 +191,25 @@ namespace {
                         "read it, not both");
     }
 
-    // Step 1: reads and checks the surface, and the medial mesh unless it is to be generated.
+    // Step 1: reads and checks the surface, and the medial mesh unless it is to be generated,
+    // with the checks of `mat-bake check` (bake_inputs.hpp), then moves them to metres.
     void read_inputs(
         const BakeOptions& options, BakeData& bake, BakeReport& report, MedialMesh& input_medial)
     {
         stage(report, "read inputs", [&] {
-            bake.surface = read_surface(options.surface);
+            CheckedSurface checked = inspect_surface(options.surface);
+            require_bake_surface(checked, options.surface, options.checks);
+            if (!report.medial_generated) {
+                input_medial = read_medial(options.medial);
+                require_bake_medial(input_medial, options.medial, checked.surface, options.surface);
+                scale_to_metres(input_medial, options.unit);
+                bake.medial_hash = hash_file(options.medial);
+            }
+            bake.surface = std::move(checked.surface);
             scale_to_metres(bake.surface, options.unit);
-            const SurfaceReport surface_report = validate_surface(bake.surface);
-            require_closed_manifold(surface_report, options.surface);
             bake.surface_hash = hash_file(options.surface);
-            report.bbox_diagonal = surface_report.bbox.diagonal().norm();
-            if (report.medial_generated)
-                return;
-            input_medial = read_medial(options.medial);
-            scale_to_metres(input_medial, options.unit);
-            if (input_medial.num_spheres() == 0)
-                throw_error("{}: the medial mesh has no sphere", options.medial);
-            require_centers_inside(input_medial, bake.surface, options.medial, options.surface);
-            bake.medial_hash = hash_file(options.medial);
+            const MatX3& x = bake.surface.positions;
+            report.bbox_diagonal = (x.colwise().maxCoeff() - x.colwise().minCoeff()).norm();
         });
     }
 
@@ -243,8 +247,10 @@ namespace {
     void tetrahedralize_interior(const BakeOptions& options, BakeData& bake, BakeReport& report)
     {
         stage(report, "tetrahedralize", [&] {
-            bake.tet_mesh = tetrahedralize(
-                bake.surface, tetrahedralize_options_for(report.bbox_diagonal, options.tet_size));
+            TetrahedralizeOptions tet_options
+                = tetrahedralize_options_for(report.bbox_diagonal, options.tet_size);
+            tet_options.max_vertices = options.max_tet_vertices;
+            bake.tet_mesh = tetrahedralize(bake.surface, tet_options);
             const TetQuality quality = tet_quality(bake.tet_mesh);
             report.tets = quality.num_tets;
             report.nodes = quality.num_vertices;

@@ -7,6 +7,7 @@
 
 #include "common/bake_data.hpp"
 #include "common/timer.hpp"
+#include "preprocess/bake/bake_inputs.hpp"
 #include "preprocess/medial/medial_generator.hpp"
 #include "preprocess/meshing/cgal_mesh3.hpp"
 
@@ -14,6 +15,7 @@ namespace mat {
 
 struct BakeOptions {
     std::string surface; ///< closed surface file
+    InputChecks checks; ///< what the input checks let through (--allow-self-intersections)
     std::string medial; ///< .ma file
     /// > 0: generate the medial mesh with this many spheres instead of reading `medial`
     Index spheres = 0;
@@ -22,6 +24,8 @@ struct BakeOptions {
     /// Length unit of the input files (--unit): "mm", "cm", "m" or "in"; the bake is in metres.
     std::string unit = "m";
     double tet_size = k_default_tet_size; ///< tet size as a fraction of the bbox diagonal
+    /// Bound on the vertices of the tet mesher's triangulation (docs/mat-bake.md, "Bounds").
+    Index max_tet_vertices = 2000000;
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
     int weights_per_node = 8; ///< K: largest weights kept per node
     double region_alpha = 0.5; ///< handle region: nodes within alpha * radius of the center

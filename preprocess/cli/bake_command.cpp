@@ -6,6 +6,7 @@
 #include "common/log.hpp"
 #include "common/timer.hpp"
 #include "formats/bake_io.hpp"
+#include "preprocess/cli/check_command.hpp"
 #include "preprocess/cli/medial_command.hpp"
 #include "preprocess/model_size/model_size_search.hpp"
 
@@ -24,6 +25,7 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
         ->check(whole_number_at_least(1))
         ->excludes(medial);
     add_medial_generator_options(app, options.generator);
+    add_input_check_options(app, options.checks);
     app.add_option("-o,--output", options.output, "The bake file to write (.h5)");
     app.add_option("--unit", options.unit,
            "Length unit of SURFACE and --medial (centers and radii): mm, cm, m or in; the bake "
@@ -32,6 +34,10 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
         ->capture_default_str();
     app.add_option(
            "--tet-size", options.tet_size, "Tet size as a fraction of the bounding-box diagonal")
+        ->capture_default_str();
+    app.add_option("--max-tet-vertices", options.max_tet_vertices,
+           "Bound on the tet mesher's vertices; past it the bake stops with an error")
+        ->check(whole_number_at_least(1))
         ->capture_default_str();
     app.add_option("--quadratic", options.quadratic,
            "Quadratic (30 DOF) handles: all, none, or a list of sphere indices 0,4,7")

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "preprocess/bake/bake_inputs.hpp"
 #include "preprocess/medial/medial_generator.hpp"
 
 namespace mat {
@@ -14,6 +15,7 @@ struct MedialCommandOptions {
     std::string surface;
     std::string output;
     MedialGeneratorOptions generator;
+    InputChecks checks; ///< --allow-self-intersections
 };
 
 /// Adds the `medial` subcommand to app; its options land in options.

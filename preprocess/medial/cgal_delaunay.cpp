@@ -1,6 +1,6 @@
-// The one translation unit of the medial generator that includes CGAL: a sequential
-// Delaunay_triangulation_3 over the Epick kernel (exact predicates, so degenerate inputs are
-// handled by symbolic perturbation and never crash).
+// The small CGAL translation unit: a sequential Delaunay_triangulation_3 over the Epick kernel
+// (exact predicates, so degenerate inputs are handled by symbolic perturbation and never crash),
+// and the self-intersection test of a surface over the same kernel.
 
 #include "preprocess/medial/cgal_delaunay.hpp"
 
@@ -11,6 +11,8 @@
 
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Surface_mesh.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 #include <CGAL/exceptions.h>
 
@@ -24,6 +26,7 @@ namespace {
     using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase>;
     using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
     using Point = Kernel::Point_3;
+    using PolygonMesh = CGAL::Surface_mesh<Point>;
 
 } // namespace
 
@@ -60,6 +63,36 @@ MatX4i delaunay_tetrahedra(const Eigen::Ref<const MatX3>& points)
     for (std::size_t t = 0; t < tets.size(); ++t)
         for (int k = 0; k < 4; ++k)
             result(static_cast<Index>(t), k) = tets[t][static_cast<std::size_t>(k)];
+    return result;
+}
+
+SelfIntersections find_self_intersections(const SurfaceMesh& surface)
+{
+    PolygonMesh mesh;
+    for (Index v = 0; v < surface.num_vertices(); ++v)
+        mesh.add_vertex(
+            Point(surface.positions(v, 0), surface.positions(v, 1), surface.positions(v, 2)));
+    using VertexIndex = PolygonMesh::Vertex_index;
+    for (Index f = 0; f < surface.num_faces(); ++f) {
+        const auto vertex = [&](int k) {
+            return VertexIndex(static_cast<PolygonMesh::size_type>(surface.faces(f, k)));
+        };
+        if (mesh.add_face(vertex(0), vertex(1), vertex(2)) == PolygonMesh::null_face())
+            throw_error("self-intersection test: face {} does not fit a manifold mesh", f);
+    }
+    // Faces keep their order (face f of the surface is face f of the mesh).
+    std::vector<std::pair<PolygonMesh::Face_index, PolygonMesh::Face_index>> found;
+    CGAL::Polygon_mesh_processing::self_intersections(mesh, std::back_inserter(found));
+    SelfIntersections result;
+    result.count = static_cast<Index>(found.size());
+    for (const auto& [f, g] : found) {
+        const Index a = std::min<Index>(f.idx(), g.idx()), b = std::max<Index>(f.idx(), g.idx());
+        if (result.first_face < 0
+            || std::make_pair(a, b) < std::make_pair(result.first_face, result.second_face)) {
+            result.first_face = a;
+            result.second_face = b;
+        }
+    }
     return result;
 }
 

@@ -26,6 +26,8 @@ namespace {
 
     /// The most surface samples (the initial complex has about 3.5 spheres per sample).
     constexpr Index k_max_samples = 500000;
+    /// The most times the surface is sampled again, 4x more densely each time.
+    constexpr int k_max_resamplings = 2;
 
     void check_options(const MedialGeneratorOptions& o)
     {
@@ -50,6 +52,9 @@ namespace {
                 "medial generator: min_slab_angle must be in [0, 60), got {}", o.min_slab_angle);
         if (!(o.refine_factor >= 1))
             throw_error("medial generator: refine_factor must be >= 1, got {}", o.refine_factor);
+        if (!(o.query_bound > 0))
+            throw_error(
+                "medial generator: --medial-query-bound must be > 0, got {}", o.query_bound);
         if (o.quality_samples < 1 || o.quality_directions < 1)
             throw_error("medial generator: quality samples and directions must be >= 1");
     }
@@ -148,6 +153,96 @@ namespace {
         return out;
     }
 
+    struct InnerComplex {
+        SurfaceSamples samples;
+        MedialComplex complex;
+        Index pieces = 0; ///< connected through the complex's edges
+        int resamplings = 0;
+    };
+
+    // Step 2: the inner Voronoi complex of the surface samples. A part thinner than the sample
+    // spacing leaves it in more pieces than the surface has components: sample 4x more densely
+    // (twice at most). Edge collapses never join pieces, so more pieces than spheres asked is
+    // refused here (docs/mat-bake.md, "Bounds").
+    InnerComplex sample_inner_complex(const SurfaceMesh& surface, const SurfaceDistance& distance,
+        const MedialGeneratorOptions& options, Index components, double diagonal)
+    {
+        Timer timer;
+        InnerComplex inner;
+        for (;; ++inner.resamplings) {
+            const Index count = std::min(k_max_samples, options.samples << (2 * inner.resamplings));
+            inner.samples = sample_surface(surface, count);
+            const MatX4i tets = delaunay_tetrahedra(inner.samples.points);
+            inner.complex = inner_voronoi_complex(
+                inner.samples.points, tets, distance, options.min_depth * diagonal);
+            inner.pieces = count_pieces(inner.complex);
+            logger().debug("medial generator: {} samples (spacing {:.3g}), {} Delaunay tets, "
+                           "inner Voronoi complex {} spheres, {} edges, {} triangles in {} pieces "
+                           "({:.2f} s)",
+                inner.samples.points.rows(), inner.samples.spacing, tets.rows(),
+                inner.complex.num_spheres(), inner.complex.edges.size(),
+                inner.complex.triangles.size(), inner.pieces, timer.seconds());
+            if (inner.pieces <= components || inner.resamplings == k_max_resamplings
+                || count == k_max_samples)
+                break;
+            logger().info("medial generator: the inner Voronoi complex of {} samples is in {} "
+                          "pieces for {} surface components (parts thinner than the spacing "
+                          "{:.3g}); sampling 4x more densely",
+                inner.samples.points.rows(), inner.pieces, components, inner.samples.spacing);
+        }
+        if (inner.pieces > options.spheres)
+            throw_error("{}: medial generator: {} pieces after {} resampling{} ({} samples, {} "
+                        "surface component{}), past the bound of the {} spheres asked (no "
+                        "collapse joins two pieces); the surface may intersect itself (run "
+                        "mat-bake check) or have parts thinner than the spacing {:.3g}: ask for "
+                        "at least {} spheres, more --samples, or give --medial FILE",
+                options.surface_name, inner.pieces, inner.resamplings,
+                inner.resamplings == 1 ? "" : "s", inner.samples.points.rows(), components,
+                components == 1 ? "" : "s", options.spheres, inner.samples.spacing, inner.pieces);
+        return inner;
+    }
+
+    // Step 3: edge collapses down to options.spheres, within the bound on surface queries.
+    MedialMesh simplify(const InnerComplex& inner, const SurfaceDistance& distance,
+        const MedialGeneratorOptions& options, double diagonal, Index components, MedialQuality& q)
+    {
+        Timer timer;
+        SimplifyOptions simplify;
+        simplify.target_spheres = options.spheres;
+        simplify.min_depth = options.min_depth * diagonal;
+        simplify.max_protrusion = options.max_protrusion * diagonal;
+        simplify.stability_constant = std::pow(options.stability * diagonal, 2);
+        simplify.refine_factor = options.refine_factor;
+        simplify.max_surface_queries = static_cast<Index>(
+            std::ceil(options.query_bound * double(inner.complex.num_spheres())));
+        SimplifyReport report;
+        MedialMesh medial
+            = simplify_medial(inner.complex, inner.samples.points, distance, simplify, &report);
+        q.relaxations = report.relaxations;
+        q.surface_queries = report.surface_queries;
+        logger().debug("medial generator: {} collapses ({} ranked by distance), {} refused, {} "
+                       "surface queries ({:.2f} per initial sphere), {} relaxations (tolerance "
+                       "{:.3g}) ({:.2f} s)",
+            report.collapses, report.refine_collapses, report.rejected, report.surface_queries,
+            double(report.surface_queries) / double(inner.complex.num_spheres()),
+            report.relaxations, report.final_max_protrusion, timer.seconds());
+        if (report.stopped_at_bound)
+            throw_error("{}: medial generator: simplification stopped at {} spheres of the {} "
+                        "asked after {} surface queries, past the bound of {} ({} per initial "
+                        "sphere, --medial-query-bound); the surface may intersect itself (run "
+                        "mat-bake check): ask for more spheres, raise --medial-query-bound, or "
+                        "give --medial FILE",
+                options.surface_name, medial.num_spheres(), options.spheres, report.surface_queries,
+                simplify.max_surface_queries, options.query_bound);
+        if (medial.num_spheres() > options.spheres)
+            throw_error("{}: cannot reduce the medial mesh to {} spheres: {} remain in separate "
+                        "parts (the surface has {} components; parts thinner than the sample "
+                        "spacing {:.3g} also split it: try more spheres or more samples)",
+                options.surface_name, options.spheres, medial.num_spheres(), components,
+                inner.samples.spacing);
+        return medial;
+    }
+
 } // namespace
 
 std::string MedialQuality::summary() const
@@ -172,29 +267,12 @@ MedialMesh generate_medial_mesh(
     MedialQuality q;
     q.bbox_diagonal = diagonal;
     const SurfaceDistance distance(surface);
-    // A part thinner than the sample spacing leaves the inner Voronoi complex in more pieces
-    // than the surface has components: sample 4x more densely (twice at most).
-    SurfaceSamples samples;
-    MedialComplex complex;
-    for (int attempt = 0;; ++attempt) {
-        const Index count = std::min(k_max_samples, options.samples << (2 * attempt));
-        samples = sample_surface(surface, count);
-        const MatX4i tets = delaunay_tetrahedra(samples.points);
-        complex
-            = inner_voronoi_complex(samples.points, tets, distance, options.min_depth * diagonal);
-        const Index pieces = count_pieces(complex);
-        logger().debug("medial generator: {} samples (spacing {:.3g}), {} Delaunay tets, inner "
-                       "Voronoi complex {} spheres, {} edges, {} triangles in {} pieces ({:.2f} s)",
-            samples.points.rows(), samples.spacing, tets.rows(), complex.num_spheres(),
-            complex.edges.size(), complex.triangles.size(), pieces, timer.seconds());
-        if (pieces <= report.num_components || attempt == 2 || count == k_max_samples)
-            break;
-        logger().info("medial generator: the inner Voronoi complex of {} samples is in {} pieces "
-                      "for {} surface components (parts thinner than the spacing {:.3g}); "
-                      "sampling 4x more densely",
-            samples.points.rows(), pieces, report.num_components, samples.spacing);
-    }
-    q.samples = samples.points.rows();
+    const InnerComplex inner
+        = sample_inner_complex(surface, distance, options, report.num_components, diagonal);
+    const MedialComplex& complex = inner.complex;
+    q.samples = inner.samples.points.rows();
+    q.resamplings = inner.resamplings;
+    q.pieces = inner.pieces;
     q.initial_spheres = complex.num_spheres();
     q.initial_edges = static_cast<Index>(complex.edges.size());
     q.initial_triangles = static_cast<Index>(complex.triangles.size());
@@ -205,28 +283,7 @@ MedialMesh generate_medial_mesh(
     if (complex.num_spheres() < options.spheres)
         logger().warn("medial generator: only {} candidate spheres for the {} asked; keeping all",
             complex.num_spheres(), options.spheres);
-
-    SimplifyOptions simplify;
-    simplify.target_spheres = options.spheres;
-    simplify.min_depth = options.min_depth * diagonal;
-    simplify.max_protrusion = options.max_protrusion * diagonal;
-    simplify.stability_constant = std::pow(options.stability * diagonal, 2);
-    simplify.refine_factor = options.refine_factor;
-    SimplifyReport simplify_report;
-    MedialMesh medial
-        = simplify_medial(complex, samples.points, distance, simplify, &simplify_report);
-    q.relaxations = simplify_report.relaxations;
-    logger().debug("medial generator: {} collapses ({} ranked by distance), {} refused, {} "
-                   "surface queries, {} relaxations (tolerance {:.3g}) ({:.2f} s)",
-        simplify_report.collapses, simplify_report.refine_collapses, simplify_report.rejected,
-        simplify_report.surface_queries, simplify_report.relaxations,
-        simplify_report.final_max_protrusion, timer.seconds());
-    if (medial.num_spheres() > options.spheres)
-        throw_error("{}: cannot reduce the medial mesh to {} spheres: {} remain in separate parts "
-                    "(the surface has {} components; parts thinner than the sample spacing {:.3g} "
-                    "also split it: try more spheres or more samples)",
-            options.surface_name, options.spheres, medial.num_spheres(), report.num_components,
-            samples.spacing);
+    MedialMesh medial = simplify(inner, distance, options, diagonal, report.num_components, q);
     medial = remove_degenerate_primitives(medial, options.min_slab_angle, q.removed_slivers);
 
     // The bake's own test: every center inside by winding number, every radius finite and > 0.

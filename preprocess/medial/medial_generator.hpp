@@ -35,6 +35,9 @@ struct MedialGeneratorOptions {
     double refine_factor = 3.0;
     /// Smallest interior angle of a slab's center triangle, degrees; thinner slabs become cones.
     double min_slab_angle = 2.0;
+    /// Bound on the simplification's work: surface distance queries per sphere of the inner
+    /// Voronoi complex (docs/mat-bake.md, "Bounds"); past it the generator stops with an error.
+    double query_bound = 200.0;
     Index quality_samples = 50000; ///< surface points for the Hausdorff distance and coverage
     int quality_directions = 48; ///< rays per explored sphere for the envelope -> surface side
     std::string surface_name = "surface"; ///< names the surface in error messages
@@ -46,7 +49,10 @@ struct MedialQuality {
     Index initial_spheres = 0, initial_edges = 0, initial_triangles = 0;
     Index spheres = 0, cones = 0, slabs = 0;
     Index removed_slivers = 0; ///< slabs turned into cones by the cleanup
+    int resamplings = 0; ///< times the surface was sampled again, 4x more densely
+    Index pieces = 0; ///< of the inner Voronoi complex, through its edges
     int relaxations = 0; ///< times the protrusion tolerance was doubled
+    Index surface_queries = 0; ///< made by the simplification's checks
     double bbox_diagonal = 0.0;
     double hausdorff = 0.0; ///< two-sided, surface <-> envelope boundary
     double surface_to_envelope = 0.0;

@@ -83,6 +83,11 @@ namespace {
                 start_refinement();
             push_all_edges();
             while (m_graph.num_alive() > m_options.target_spheres) {
+                if (m_options.max_surface_queries > 0
+                    && m_queries > m_options.max_surface_queries) {
+                    report.stopped_at_bound = true;
+                    break;
+                }
                 if (!m_refining && double(m_graph.num_alive()) <= refine_from) {
                     start_refinement();
                     push_all_edges();

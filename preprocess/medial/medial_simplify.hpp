@@ -26,6 +26,9 @@ struct SimplifyOptions {
     double max_protrusion = 0.0; ///< absolute: allowed crossing of the surface, > 0
     double stability_constant = 0.0; ///< absolute squared length k of the cost (E + k) tau^2
     double refine_factor = 3.0; ///< phase 2 starts at refine_factor x N spheres, >= 1
+    /// Stop once the checks have made this many surface distance queries (0: no bound); the
+    /// report says so, and the result has more than N spheres.
+    Index max_surface_queries = 0;
 };
 
 struct SimplifyReport {
@@ -35,6 +38,7 @@ struct SimplifyReport {
     int relaxations = 0; ///< times max_protrusion was doubled
     double final_max_protrusion = 0.0; ///< the tolerance in force at the end
     Index surface_queries = 0; ///< surface distance queries made by the checks
+    bool stopped_at_bound = false; ///< max_surface_queries was reached
 };
 
 /// Simplifies `complex` (whose contact samples index rows of `samples`, #P x 3, the surface

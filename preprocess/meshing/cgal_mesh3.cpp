@@ -296,8 +296,22 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
         : params::no_exude();
     const auto features
         = options.detect_features ? params::features(domain) : params::no_features();
+    // The vertex bound stops the refinement where it stands (Mesh_3's forced stop); a mesh that
+    // stays below it is the same as without it.
+    params::internal::Mesh_3_options bound;
+    bound.maximal_number_of_vertices
+        = static_cast<std::size_t>(std::max<Index>(0, options.max_vertices));
+    CGAL::Mesh_error_code error = CGAL::CGAL_MESH_3_NO_ERROR;
+    bound.pointer_to_error_code = &error;
     const PolyhedralC3t3 c3t3 = CGAL::make_mesh_3<PolyhedralC3t3>(
-        domain, criteria, features, params::no_perturb(), exude);
+        domain, criteria, features, params::no_perturb(), exude, bound);
+    logger().debug("tetrahedralize: Mesh_3 triangulation of {} vertices ({:.2f} s)",
+        c3t3.triangulation().number_of_vertices(), timer.seconds());
+    if (error == CGAL::CGAL_MESH_3_MAXIMAL_NUMBER_OF_VERTICES_REACHED)
+        throw_error("tetrahedralize: Mesh_3 reached {} vertices, the bound of --max-tet-vertices, "
+                    "after {:.1f} s; use a larger --tet-size (cell size {:.4g}) or raise "
+                    "--max-tet-vertices",
+            c3t3.triangulation().number_of_vertices(), timer.seconds(), options.cell_size);
 
     if (c3t3.number_of_cells_in_complex() == 0)
         throw_error("tetrahedralize: CGAL Mesh_3 produced no tetrahedra (is the surface closed "

@@ -30,6 +30,9 @@ struct TetrahedralizeOptions {
     double exude_sliver_bound = 15.0;
     bool detect_features = false; ///< protect sharp edges (dihedral angle below feature_angle)
     double feature_angle = 60.0; ///< degrees; used only with detect_features
+    /// Bound on the vertices of Mesh_3's triangulation (docs/mat-bake.md, "Bounds"): past it
+    /// tetrahedralize() stops with an error. 0: no bound.
+    Index max_vertices = 0;
 };
 
 /// The recommended default tet size, as a fraction of the bounding-box diagonal: the armadillo

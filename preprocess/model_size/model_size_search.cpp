@@ -12,7 +12,6 @@
 #include "common/log.hpp"
 #include "common/surface_embedding.hpp"
 #include "common/timer.hpp"
-#include "formats/surface_io.hpp"
 #include "formats/surface_validation.hpp"
 #include "preprocess/medial/medial_generator.hpp"
 #include "preprocess/pd/reduced_operators.hpp"
@@ -66,7 +65,10 @@ namespace {
             : m_options(options)
             , m_generated(options.bake.medial.empty())
         {
-            m_surface = read_surface(options.bake.surface);
+            // Refused before any medial mesh is generated, as the bake would refuse it.
+            CheckedSurface checked = inspect_surface(options.bake.surface);
+            require_bake_surface(checked, options.bake.surface, options.bake.checks);
+            m_surface = std::move(checked.surface);
             scale_to_metres(m_surface, options.bake.unit);
             m_box = validate_surface(m_surface).bbox;
             m_diagonal = m_box.diagonal().norm();

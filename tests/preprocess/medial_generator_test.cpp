@@ -241,13 +241,15 @@ namespace {
             },
             { "cube_open.obj", "not closed" });
 
-        // Two separate boxes cannot share one sphere.
+        // Two separate boxes cannot share one sphere: the two pieces of the inner Voronoi
+        // complex are more than the one sphere asked, refused before any collapse.
         options = test_options(1);
         options.surface_name = "two_boxes";
         const SurfaceMesh two
             = join(box(Vec3(0, 0, 0), Vec3(1, 1, 1)), box(Vec3(2, 0, 0), Vec3(3, 1, 1)));
         test::expect_error_containing([&] { generate_medial_mesh(two, options, nullptr); },
-            { "two_boxes", "separate parts" });
+            { "two_boxes", "medial generator: 2 pieces after 0 resamplings",
+                "past the bound of the 1 spheres asked", "ask for at least 2 spheres" });
         // With one sphere each it works.
         options.spheres = 2;
         const MedialMesh medial = generate_medial_mesh(two, options, nullptr);
