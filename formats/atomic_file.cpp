@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <signal.h>
 #include <unistd.h>
 
 #include "common/error.hpp"
@@ -41,6 +42,50 @@ void AtomicFile::commit()
         throw_error(
             "{}: cannot write: rename from temporary failed: {}", m_target, std::strerror(errno));
     m_committed = true;
+}
+
+namespace {
+    /// The writer's process id in ".NAME.PID.N.tmp" (NAME matching `name` unless empty), or -1.
+    long temporary_owner(const std::string& file, const std::string& name)
+    {
+        const std::string suffix = ".tmp";
+        if (file.size() < 8 || file[0] != '.'
+            || file.compare(file.size() - suffix.size(), suffix.size(), suffix) != 0)
+            return -1;
+        const std::string body = file.substr(1, file.size() - 1 - suffix.size()); // NAME.PID.N
+        const std::size_t counter_dot = body.rfind('.');
+        if (counter_dot == std::string::npos || counter_dot == 0)
+            return -1;
+        const std::size_t pid_dot = body.rfind('.', counter_dot - 1);
+        if (pid_dot == std::string::npos || pid_dot == 0)
+            return -1;
+        const std::string pid = body.substr(pid_dot + 1, counter_dot - pid_dot - 1);
+        const std::string counter = body.substr(counter_dot + 1);
+        const auto digits = [](const std::string& text) {
+            return !text.empty() && text.size() < 12
+                && text.find_first_not_of("0123456789") == std::string::npos;
+        };
+        if (!digits(pid) || !digits(counter) || (!name.empty() && body.substr(0, pid_dot) != name))
+            return -1;
+        return std::stol(pid);
+    }
+} // namespace
+
+int remove_stale_temporaries(const std::string& directory, const std::string& name)
+{
+    std::error_code ec;
+    int removed = 0;
+    for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+        const long pid = temporary_owner(it->path().filename().string(), name);
+        if (pid < 0)
+            continue;
+        // A running process (this one included) may be writing it.
+        const bool running = pid == long(getpid()) || kill(pid_t(pid), 0) == 0 || errno == EPERM;
+        std::error_code remove_error;
+        if (!running && fs::remove(it->path(), remove_error))
+            ++removed;
+    }
+    return removed;
 }
 
 } // namespace mat

@@ -30,4 +30,10 @@ private:
     bool m_committed = false;
 };
 
+/// Removes the temporaries that AtomicFile writers of processes no longer running left in
+/// `directory` (".NAME.PID.N.tmp", from a killed run); with `name` non-empty, only those of the
+/// target NAME. A temporary of a running process (another writer) stays. Returns how many were
+/// removed; a missing directory has none.
+int remove_stale_temporaries(const std::string& directory, const std::string& name = "");
+
 } // namespace mat

@@ -61,13 +61,17 @@ struct H5WriterOptions {
     int gzip_level = 0;
     /// Datasets smaller than this stay uncompressed and contiguous.
     std::int64_t compress_min_bytes = 64 * 1024;
+    /// HDF5's file lock while writing; off lets other processes read a published file as it
+    /// is written (H5Writer::publish).
+    bool file_locking = true;
 };
 
 /// Writes one HDF5 file atomically: everything goes to a temporary file beside the target, and
 /// commit() closes it and renames it over the target. A writer destroyed without commit()
 /// (an exception, an early return) leaves no file at the target and an existing target as it
-/// was. Objects are written once: writing a dataset or group path that already exists as a
-/// dataset throws; setting an attribute that exists replaces it.
+/// was, unless it was published (publish(): a file written in place, which stays). Objects are
+/// written once: writing a dataset or group path that already exists as a dataset throws; setting
+/// an attribute that exists replaces it.
 class H5Writer {
 public:
     /// Starts writing `target`. Throws mat::Error if its directory does not exist or the
@@ -118,7 +122,14 @@ public:
     /// (#items x rows x cols). The dataset is chunked along the items (chunks of up to 64
     /// items and about 256 KiB; an item above 1 MiB is split by rows), with the writer's gzip
     /// level; it starts with 0 items.
-    void create_series(const std::string& path, const std::vector<Index>& item_shape);
+    /// `capacity` > 0 reserves that many items instead: the dataset has `capacity` items from
+    /// the start, stored contiguously and uncompressed, its space allocated now (the file grows
+    /// sparsely: no fill value is written), and append() writes item series_size() in place, up
+    /// to `capacity`. Writing an item then changes no metadata of the file, so that a published
+    /// file stays readable whenever the writer stops (the caller records how many items are
+    /// valid, e.g. in an attribute it updates after a flush()).
+    void create_series(
+        const std::string& path, const std::vector<Index>& item_shape, Index capacity = 0);
     /// Appends one item to a series made by create_series: `item` holds the item row by row
     /// (1 x 1 for {}, 1 x n or n x 1 for {n}, rows x cols for {rows, cols}). On a failure the
     /// series keeps its previous items.
@@ -132,8 +143,20 @@ public:
     /// which H5Reader::require_format checks.
     void stamp_format(const std::string& name, int version);
 
-    /// Closes the file and renames it over the target. Throws mat::Error on failure (then no
-    /// file is left at the target). No call other than target() may follow.
+    /// Rewrites the existing scalar integer attribute `name` of `object` in place (no change to
+    /// the file's structure, unlike set_attribute, which replaces it).
+    void update_attribute(const std::string& object, const std::string& name, std::int64_t value);
+
+    /// Writes everything HDF5 holds in memory to the file (to the operating system: no fsync).
+    void flush();
+    /// Flushes and renames the temporary over the target now, keeping the file open: later
+    /// writes go to the target in place, a writer destroyed without commit() leaves it, and
+    /// commit() only flushes and closes it. For files that must be readable while they are
+    /// written (reserved series and update_attribute(), then flush()).
+    void publish();
+
+    /// Closes the file and renames it over the target (unless published). Throws mat::Error on
+    /// failure (then no file is left at the target). No call other than target() may follow.
     void commit();
 
 private:

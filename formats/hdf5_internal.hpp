@@ -91,13 +91,15 @@ struct Series {
     Hid dataset;
     std::vector<hsize_t> item_dims; ///< the shape of one item (rank 0 to 2, entries >= 1)
     hsize_t size = 0; ///< items written
+    hsize_t capacity = 0; ///< items reserved (0: the dataset grows by one item per append)
 };
 
 /// Creates the series `path` (normalised; its parent exists and nothing is at `path`) in `file`
 /// with the dataset creation list `dcpl` (filters set, chunks not), empty, of 64-bit floats.
+/// `capacity` > 0 reserves that many items instead (H5Writer::create_series).
 /// `target` names the file in errors.
 Series create_series(hid_t file, hid_t dcpl, const std::string& target, const std::string& path,
-    const std::vector<hsize_t>& item_dims);
+    const std::vector<hsize_t>& item_dims, hsize_t capacity = 0);
 /// Appends one item of `rows x cols` values (`data`, row by row) to `series` at `path`.
 /// Throws mat::Error if the shape does not match or HDF5 fails; the series then keeps its
 /// previous items.

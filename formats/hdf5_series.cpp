@@ -29,22 +29,33 @@ namespace {
 } // namespace
 
 Series create_series(hid_t file, hid_t dcpl, const std::string& target, const std::string& path,
-    const std::vector<hsize_t>& item_dims)
+    const std::vector<hsize_t>& item_dims, hsize_t capacity)
 {
-    std::vector<hsize_t> dims { 0 };
+    std::vector<hsize_t> dims { capacity };
     dims.insert(dims.end(), item_dims.begin(), item_dims.end());
     std::vector<hsize_t> max_dims = dims;
-    max_dims[0] = H5S_UNLIMITED;
+    if (capacity == 0)
+        max_dims[0] = H5S_UNLIMITED;
     const Hid space(H5Screate_simple(int(dims.size()), dims.data(), max_dims.data()), H5Sclose);
-    const std::vector<hsize_t> chunk = series_chunk_shape(item_dims);
-    if (!space.valid() || H5Pset_chunk(dcpl, int(chunk.size()), chunk.data()) < 0)
+    bool layout_ok = false;
+    if (capacity == 0) {
+        const std::vector<hsize_t> chunk = series_chunk_shape(item_dims);
+        layout_ok = H5Pset_chunk(dcpl, int(chunk.size()), chunk.data()) >= 0;
+    } else {
+        // Reserved: contiguous storage allocated now (the file grows sparsely, no fill is
+        // written), so that writing an item changes no metadata of the file.
+        layout_ok = H5Pset_layout(dcpl, H5D_CONTIGUOUS) >= 0
+            && H5Pset_alloc_time(dcpl, H5D_ALLOC_TIME_EARLY) >= 0
+            && H5Pset_fill_time(dcpl, H5D_FILL_TIME_NEVER) >= 0;
+    }
+    if (!space.valid() || !layout_ok)
         throw_error("{}: cannot create series '{}': {}", target, path, reason());
     Hid dataset(
         H5Dcreate2(file, path.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, dcpl, H5P_DEFAULT),
         H5Dclose);
     if (!dataset.valid())
         throw_error("{}: cannot create series '{}': {}", target, path, reason());
-    return Series { std::move(dataset), item_dims, 0 };
+    return Series { std::move(dataset), item_dims, 0, capacity };
 }
 
 void append_to_series(Series& series, const std::string& target, const std::string& path,
@@ -58,14 +69,18 @@ void append_to_series(Series& series, const std::string& target, const std::stri
         throw_error("{}: cannot append to series '{}': an item of {} x {}, expected {}", target,
             path, rows, cols, describe_dims(item));
 
-    std::vector<hsize_t> dims { series.size + 1 };
+    const bool reserved = series.capacity > 0;
+    if (reserved && series.size >= series.capacity)
+        throw_error("{}: cannot append to series '{}': its {} reserved items are written", target,
+            path, series.capacity);
+    std::vector<hsize_t> dims { reserved ? series.capacity : series.size + 1 };
     dims.insert(dims.end(), item.begin(), item.end());
     std::vector<hsize_t> start(dims.size(), 0);
     start[0] = series.size;
     std::vector<hsize_t> count = dims;
     count[0] = 1;
     const hsize_t values = hsize_t(rows * cols);
-    if (H5Dset_extent(series.dataset.get(), dims.data()) < 0)
+    if (!reserved && H5Dset_extent(series.dataset.get(), dims.data()) < 0)
         throw_error("{}: cannot append to series '{}': {}", target, path, reason());
     const Hid file_space(H5Dget_space(series.dataset.get()), H5Sclose);
     const Hid memory_space(H5Screate_simple(1, &values, nullptr), H5Sclose);
@@ -79,7 +94,8 @@ void append_to_series(Series& series, const std::string& target, const std::stri
     if (!written) {
         const std::string why = reason();
         dims[0] = series.size; // keep the previous items only
-        H5Dset_extent(series.dataset.get(), dims.data());
+        if (!reserved)
+            H5Dset_extent(series.dataset.get(), dims.data());
         H5Eclear2(H5E_DEFAULT);
         throw_error("{}: cannot append to series '{}': {}", target, path, why);
     }

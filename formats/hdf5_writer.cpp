@@ -54,6 +54,7 @@ struct H5Writer::Impl {
     Hid file; // after `atomic`: closed before the temporary is removed
     std::map<std::string, h5::Series> series; // after `file`: closed before the file
     bool committed = false;
+    bool published = false; ///< renamed to the target already (publish())
 
     Impl(std::string target_, H5WriterOptions options_)
         : target(std::move(target_))
@@ -69,7 +70,8 @@ struct H5Writer::Impl {
         // any size (JSON options) in dense storage. No timestamps on the root group.
         if (!fcpl.valid() || !fapl.valid() || H5Pset_obj_track_times(fcpl.get(), false) < 0
             || H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V18, H5F_LIBVER_V18) < 0
-            || H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG) < 0)
+            || H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG) < 0
+            || (!options.file_locking && H5Pset_file_locking(fapl.get(), false, true) < 0))
             throw_error("{}: cannot set up HDF5 file properties: {}", target, h5::reason());
         file = Hid(
             H5Fcreate(atomic.temp_path().c_str(), H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
@@ -215,7 +217,8 @@ struct H5Writer::Impl {
         }
     }
 
-    void create_series(const std::string& raw_path, const std::vector<Index>& item_shape)
+    void create_series(
+        const std::string& raw_path, const std::vector<Index>& item_shape, Index capacity)
     {
         check_open();
         const std::string path = h5::normalize(target, raw_path);
@@ -235,13 +238,17 @@ struct H5Writer::Impl {
         if (h5::object_type(file.get(), path) != H5I_BADID)
             throw_error("{}: cannot create series '{}': it already exists", target, path);
 
+        if (capacity < 0)
+            throw_error("{}: cannot create series '{}': capacity {}, expected >= 0", target, path,
+                capacity);
         const Hid dcpl = object_creation_list(H5P_DATASET_CREATE);
-        if (options.gzip_level > 0 && deflate_available()
+        if (capacity == 0 && options.gzip_level > 0 && deflate_available()
             && (H5Pset_shuffle(dcpl.get()) < 0
                 || H5Pset_deflate(dcpl.get(), unsigned(options.gzip_level)) < 0))
             throw_error(
                 "{}: cannot set up compression for series '{}': {}", target, path, h5::reason());
-        series[path] = h5::create_series(file.get(), dcpl.get(), target, path, item_dims);
+        series[path]
+            = h5::create_series(file.get(), dcpl.get(), target, path, item_dims, hsize_t(capacity));
     }
 
     h5::Series& find_series(const std::string& path, const char* what)
@@ -321,9 +328,10 @@ void H5Writer::write_vector(const std::string& path, const Eigen::Ref<const VecX
     m_impl->write_1d(path, vector, H5T_STD_I64LE, H5T_NATIVE_INT64);
 }
 
-void H5Writer::create_series(const std::string& path, const std::vector<Index>& item_shape)
+void H5Writer::create_series(
+    const std::string& path, const std::vector<Index>& item_shape, Index capacity)
 {
-    m_impl->create_series(path, item_shape);
+    m_impl->create_series(path, item_shape, capacity);
 }
 
 void H5Writer::append(const std::string& path, const Eigen::Ref<const RowMatX>& item)
@@ -418,6 +426,39 @@ void H5Writer::stamp_format(const std::string& name, int version)
     set_attribute("/", "format_version", std::int64_t(version));
 }
 
+void H5Writer::update_attribute(
+    const std::string& raw_object, const std::string& name, std::int64_t value)
+{
+    Impl& impl = *m_impl;
+    impl.check_open();
+    const std::string object = h5::normalize(impl.target, raw_object);
+    const Hid attribute(
+        H5Aopen_by_name(impl.file.get(), object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        H5Aclose);
+    const Hid space(attribute.valid() ? H5Aget_space(attribute.get()) : -1, H5Sclose);
+    if (!space.valid() || H5Sget_simple_extent_type(space.get()) != H5S_SCALAR
+        || H5Awrite(attribute.get(), H5T_NATIVE_INT64, &value) < 0)
+        throw_error("{}: cannot update attribute '{}' of '{}': {}", impl.target, name, object,
+            h5::reason());
+}
+
+void H5Writer::flush()
+{
+    Impl& impl = *m_impl;
+    impl.check_open();
+    if (H5Fflush(impl.file.get(), H5F_SCOPE_GLOBAL) < 0)
+        throw_error("{}: cannot write HDF5 file: {}", impl.target, h5::reason());
+}
+
+void H5Writer::publish()
+{
+    Impl& impl = *m_impl;
+    flush();
+    if (!impl.published)
+        impl.atomic.commit();
+    impl.published = true;
+}
+
 void H5Writer::commit()
 {
     Impl& impl = *m_impl;
@@ -428,7 +469,8 @@ void H5Writer::commit()
         throw_error("{}: cannot write HDF5 file: {}", impl.target, h5::reason());
     if (!impl.file.reset())
         throw_error("{}: cannot close HDF5 file: {}", impl.target, h5::reason());
-    impl.atomic.commit();
+    if (!impl.published)
+        impl.atomic.commit();
 }
 
 } // namespace mat

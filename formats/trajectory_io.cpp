@@ -47,13 +47,18 @@ namespace {
 } // namespace
 
 TrajectoryWriter::TrajectoryWriter(std::string path, const std::vector<TrajectoryObject>& objects,
-    const std::string& options_json, H5WriterOptions options)
+    const std::string& options_json, H5WriterOptions options, TrajectoryLayout layout)
     : m_writer(checked_path(std::move(path), objects), options)
+    , m_layout(layout)
 {
+    if (layout.capacity < 0)
+        throw_error("{}: cannot write trajectory: capacity {}", m_writer.target(), layout.capacity);
+    const Index capacity = layout.capacity;
     m_writer.stamp_format(trajectory_format_name, trajectory_format_version);
     m_writer.set_attribute("/", "created_by", std::string("medial elastics ") + version_string);
+    m_writer.set_attribute("/", "frame_count", std::int64_t(0));
     m_writer.write_string("options", options_json);
-    m_writer.create_series("time", {});
+    m_writer.create_series("time", {}, capacity);
     m_writer.create_group("objects");
     for (std::size_t i = 0; i < objects.size(); ++i) {
         const TrajectoryObject& object = objects[i];
@@ -62,9 +67,20 @@ TrajectoryWriter::TrajectoryWriter(std::string path, const std::vector<Trajector
         m_writer.set_attribute(written.group, "index", std::int64_t(i));
         m_writer.write_matrix(written.group + "/faces", object.faces);
         m_writer.write_matrix(written.group + "/rest_positions", object.rest_positions);
-        m_writer.create_series(written.group + "/positions", { written.num_vertices, 3 });
+        m_writer.create_series(written.group + "/positions", { written.num_vertices, 3 }, capacity);
+        if (capacity > 0 && layout.velocities)
+            m_writer.create_series(
+                written.group + "/velocities", { written.num_vertices, 3 }, capacity);
         m_objects.push_back(std::move(written));
     }
+    m_velocities = capacity > 0 && layout.velocities;
+}
+
+void TrajectoryWriter::publish()
+{
+    if (m_layout.capacity == 0)
+        throw_error("{}: cannot publish a growing trajectory before commit()", path());
+    m_writer.publish();
 }
 
 void TrajectoryWriter::check_frame(const std::vector<MatX3>& values, const char* what) const
@@ -96,12 +112,15 @@ void TrajectoryWriter::append(
     check_frame(positions, "positions");
     if (velocities)
         check_frame(*velocities, "velocities");
-    if (m_frames > 0 && (velocities != nullptr) != m_velocities)
+    if ((m_frames > 0 || m_layout.capacity > 0) && (velocities != nullptr) != m_velocities)
         throw_error("{}: cannot append frame {}: {}", path(), m_frames,
             m_velocities ? "no velocities given, but the earlier frames have them"
                          : "velocities given, but the earlier frames have none");
     try {
-        if (m_frames == 0 && velocities) {
+        if (m_layout.capacity > 0 && m_frames >= m_layout.capacity)
+            throw_error("{}: cannot append frame {}: {} frames were reserved", path(), m_frames,
+                m_layout.capacity);
+        if (m_frames == 0 && velocities && m_layout.capacity == 0) {
             for (const Object& object : m_objects)
                 m_writer.create_series(object.group + "/velocities", { object.num_vertices, 3 });
             m_velocities = true;
@@ -111,6 +130,12 @@ void TrajectoryWriter::append(
             m_writer.append(m_objects[i].group + "/positions", positions[i]);
             if (velocities)
                 m_writer.append(m_objects[i].group + "/velocities", (*velocities)[i]);
+        }
+        if (m_layout.capacity > 0) {
+            // The frame's data reaches the file before the count that includes it.
+            m_writer.flush();
+            m_writer.update_attribute("/", "frame_count", std::int64_t(m_frames + 1));
+            m_writer.flush();
         }
     } catch (...) {
         m_failed = true; // the series may now differ in length
@@ -124,7 +149,7 @@ void TrajectoryWriter::commit()
 {
     if (m_failed)
         throw_error("{}: cannot commit: an earlier append failed", path());
-    m_writer.set_attribute("/", "frame_count", std::int64_t(m_frames));
+    m_writer.update_attribute("/", "frame_count", std::int64_t(m_frames));
     m_writer.commit();
 }
 
@@ -132,8 +157,17 @@ TrajectoryReader::TrajectoryReader(std::string path)
     : m_reader(std::move(path))
 {
     m_version = m_reader.require_format(trajectory_format_name, trajectory_format_version);
-    m_times = m_reader.read_vector("time");
-    const Index frames = m_times.size();
+    const VecX rows = m_reader.read_vector("time");
+    Index frames = rows.size();
+    if (m_version >= 2 || m_reader.has_attribute("/", "frame_count")) {
+        const std::int64_t count = m_reader.read_int_attribute("/", "frame_count");
+        if (count < 0 || count > rows.size() || (m_version < 2 && count != rows.size()))
+            throw_error("{}: attribute 'frame_count' is {}, expected 0 to the {} rows of '/time'",
+                m_reader.path(), count, rows.size());
+        frames = Index(count);
+    }
+    const Index row_count = rows.size();
+    m_times = rows.head(frames);
     for (Index i = 0; i < frames; ++i)
         if (!std::isfinite(m_times[i]) || (i > 0 && !(m_times[i] > m_times[i - 1])))
             throw_error("{}: dataset '/time': frame {} has time {}, expected finite and "
@@ -175,11 +209,11 @@ TrajectoryReader::TrajectoryReader(std::string path)
             const std::string dataset = group + "/" + series;
             if (!m_reader.has(dataset))
                 continue;
-            const std::vector<Index> expected { frames, num_vertices, 3 };
+            const std::vector<Index> expected { row_count, num_vertices, 3 };
             if (m_reader.shape(dataset) != expected)
-                throw_error("{}: dataset '{}' has shape {}, expected {} x {} x 3 (frames x "
-                            "vertices x 3)",
-                    m_reader.path(), dataset, fmt::join(m_reader.shape(dataset), " x "), frames,
+                throw_error("{}: dataset '{}' has shape {}, expected {} x {} x 3 (rows of "
+                            "'/time' x vertices x 3)",
+                    m_reader.path(), dataset, fmt::join(m_reader.shape(dataset), " x "), row_count,
                     num_vertices);
         }
         if (!m_reader.has(group + "/positions"))
@@ -247,6 +281,23 @@ MatX3 TrajectoryReader::velocities(Index object, Index frame) const
     if (!m_velocities)
         throw_error("{}: the trajectory holds no velocities", m_reader.path());
     return m_reader.read_series_item(group(object) + "/velocities", frame, vertex_count(object), 3);
+}
+
+void copy_frames(const TrajectoryReader& from, TrajectoryWriter& to, Index count)
+{
+    // The writer checks the objects' count and vertex counts on append (names: the caller's).
+    if (count > from.frame_count())
+        throw_error("{}: holds {} frames, {} are needed", from.path(), from.frame_count(), count);
+    std::vector<MatX3> positions(std::size_t(from.object_count()));
+    std::vector<MatX3> velocities(positions.size());
+    for (Index f = 0; f < count; ++f) {
+        for (Index o = 0; o < from.object_count(); ++o) {
+            positions[std::size_t(o)] = from.positions(o, f);
+            if (from.has_velocities())
+                velocities[std::size_t(o)] = from.velocities(o, f);
+        }
+        to.append(from.times()(f), positions, from.has_velocities() ? &velocities : nullptr);
+    }
 }
 
 } // namespace mat

@@ -61,6 +61,17 @@ int run_main(int argc, char** argv)
            "many iterations): write this run's trajectory.h5 too and report the RMS and max "
            "surface distance to it (% of its bounding-box diagonal, max over frames)")
         ->check(CLI::ExistingFile);
+    app.add_flag("--resume", options.resume,
+        "Continue the run in -o DIR from its last checkpoint (a killed run, or a finished one for "
+        "more --frames); without a checkpoint, start at frame 0");
+    app.add_option("--checkpoint-every", options.checkpoint_every,
+           "Frames between checkpoints for --resume (OUTDIR/checkpoint.h5; 0: the last frame "
+           "only)")
+        ->capture_default_str();
+    app.add_option("--progress-every", options.progress_every,
+           "Seconds between progress lines (frame, time simulated, ms/step) when stderr is not a "
+           "terminal (0: none)")
+        ->capture_default_str();
     app.add_flag("--scene-reference", reference,
         "Print every scene key with its type, default and doc (Markdown), then exit");
     return run_cli(app, argc, argv, [&] {

@@ -13,11 +13,14 @@
 #include "common/parallel.hpp"
 #include "common/progress.hpp"
 #include "common/timer.hpp"
+#include "formats/atomic_file.hpp"
 #include "formats/trajectory_io.hpp"
 #include "runtime/measures/collision_check.hpp"
 #include "runtime/measures/trajectory_error.hpp"
+#include "runtime/output/checkpoint.hpp"
 #include "runtime/output/exporter.hpp"
 #include "runtime/output/preview.hpp"
+#include "runtime/run_progress.hpp"
 #include "runtime/run_stats.hpp"
 #include "runtime/scene/scene.hpp"
 #include "runtime/scene/scene_bodies.hpp"
@@ -100,6 +103,10 @@ namespace {
     {
         if (options.frames < 0)
             throw_error("--frames {} must be positive", options.frames);
+        if (options.checkpoint_every < 0)
+            throw_error("--checkpoint-every {} must not be negative", options.checkpoint_every);
+        if (!(options.progress_every >= 0.0))
+            throw_error("--progress-every {} must not be negative", options.progress_every);
         if (options.output.empty())
             throw_error("mat-run needs an output directory (-o DIR)");
         if (options.preview
@@ -154,14 +161,59 @@ namespace {
         return reference;
     }
 
-    /// Creates the output directory (once the inputs are known good).
-    void create_output_directory(const std::string& output)
+    /// Creates the output directory (once the inputs are known good) and removes the
+    /// temporaries that killed runs left there and beside the stats file.
+    void create_output_directory(const RunOptions& options)
     {
+        namespace fs = std::filesystem;
+        const std::string& output = options.output;
         std::error_code error;
-        std::filesystem::create_directories(output, error);
-        if (error || !std::filesystem::is_directory(output))
+        fs::create_directories(output, error);
+        if (error || !fs::is_directory(output))
             throw_error("{}: cannot create the output directory ({})", output,
                 error ? error.message() : "not a directory");
+        int removed
+            = remove_stale_temporaries(output) + remove_stale_temporaries(output + "/preview");
+        if (!options.stats.empty()) {
+            const fs::path stats(options.stats);
+            const std::string directory
+                = stats.has_parent_path() ? stats.parent_path().string() : ".";
+            removed += remove_stale_temporaries(directory, stats.filename().string())
+                + remove_stale_temporaries(
+                    directory, fs::path(frame_log_path(options.stats)).filename().string());
+        }
+        if (removed > 0)
+            logger().info("{}: removed {} temporary files of earlier runs", output, removed);
+    }
+
+    /// With --resume and a checkpoint in the output directory: restores the simulation from it
+    /// and returns its frame; else -1 (a fresh run, which removes an old checkpoint).
+    int resume(
+        const RunOptions& options, const RunIdentity& identity, int frames, Simulation& simulation)
+    {
+        const std::string path = options.output + "/checkpoint.h5";
+        std::error_code error;
+        if (!std::filesystem::exists(path, error)) {
+            if (options.resume)
+                logger().info(
+                    "--resume: no checkpoint in {}: the run starts at frame 0", options.output);
+            return -1;
+        }
+        if (!options.resume) {
+            std::filesystem::remove(path, error);
+            if (error)
+                throw_error("{}: cannot remove the checkpoint of an earlier run: {}", path,
+                    error.message());
+            return -1;
+        }
+        Checkpoint checkpoint = read_checkpoint(path, identity);
+        if (checkpoint.frame > frames)
+            throw_error("{}: the run is at frame {}, past the {} frames asked (--frames)", path,
+                checkpoint.frame, frames);
+        simulation.restore(checkpoint.snapshot);
+        logger().info("--resume: continuing {} after frame {} ({} steps)", options.output,
+            checkpoint.frame, simulation.steps());
+        return checkpoint.frame;
     }
 
     /// The solver's name in the first log line.
@@ -189,13 +241,25 @@ namespace {
         stats.record_frame(frame, step_seconds, export_seconds, preview_seconds);
     }
 
-    /// The frame loop: frame 0, each frame's steps and outputs, then the files closed.
-    void run_frames(Simulation& simulation, const Scene& scene, int frames, RunStats& stats,
+    /// Where and how often the frame loop writes checkpoints.
+    struct CheckpointPlan {
+        std::string path;
+        const RunIdentity* identity = nullptr;
+        int every = 0; ///< frames between checkpoints (0: the last frame only)
+    };
+
+    /// The frame loop: frame 0 (unless resuming after `first - 1`), each frame's steps, outputs
+    /// and checkpoint, then the files closed.
+    void run_frames(Simulation& simulation, const Scene& scene, int first, int frames,
+        const CheckpointPlan& checkpoints, double progress_every, RunStats& stats,
         Exporter& exporter, PreviewWriter* preview)
     {
-        output_frame(0, 0.0, simulation, stats, exporter, preview);
-        ProgressBar progress("mat-run", static_cast<std::int64_t>(frames) * scene.steps_per_frame);
-        for (int frame = 1; frame <= frames; ++frame) {
+        if (first == 0)
+            output_frame(0, 0.0, simulation, stats, exporter, preview);
+        ProgressBar progress("mat-run",
+            static_cast<std::int64_t>(frames - std::max(first - 1, 0)) * scene.steps_per_frame);
+        RunProgress lines(progress_every, frames, simulation.steps());
+        for (int frame = std::max(first, 1); frame <= frames; ++frame) {
             Timer step_timer;
             stats.start_frame();
             for (int s = 0; s < scene.steps_per_frame; ++s) {
@@ -204,6 +268,13 @@ namespace {
                 progress.advance();
             }
             output_frame(frame, step_timer.seconds(), simulation, stats, exporter, preview);
+            if (frame == frames || (checkpoints.every > 0 && frame % checkpoints.every == 0)) {
+                Timer timer;
+                write_checkpoint(
+                    checkpoints.path, *checkpoints.identity, frame, simulation.snapshot());
+                stats.add_finish_seconds(timer.seconds(), 0.0);
+            }
+            lines.frame_done(frame, simulation);
         }
         progress.finish();
         Timer finish_timer;
@@ -232,7 +303,7 @@ namespace {
         const Simulation& simulation, const RunStats& stats, const RunTotals& totals,
         const TrajectoryReader* reference)
     {
-        const long steps = simulation.steps();
+        const long steps = stats.run_steps();
         std::printf("simulated %.4g s in %ld steps (%d frames, %ld files) in %.3f s, setup %.3f s, "
                     "peak RSS %.0f MB\n",
             simulation.time(), steps, totals.frames, totals.files, totals.loop_seconds,
@@ -278,12 +349,15 @@ void run_simulation(const RunOptions& options)
         throw_error("--check-collisions: {} has no collision between objects to check (it needs "
                     "solver.collision bounded or lazy, and two objects or self_collision on)",
             scene.file);
-    create_output_directory(options.output);
+    create_output_directory(options);
+    const RunIdentity identity = run_identity(scene, options.solver);
+    const int resume_frame = resume(options, identity, frames, simulation);
     const nlohmann::json run_json { { "scene", options.scene }, { "solver", options.solver },
         { "dt", scene.time.dt }, { "iterations", scene.time.iterations },
         { "steps_per_frame", scene.steps_per_frame }, { "frames", frames },
         { "threads", thread_count() } };
-    Exporter exporter(simulation, output_settings, options.output, run_json.dump());
+    Exporter exporter(
+        simulation, output_settings, options.output, run_json.dump(), frames, resume_frame);
     std::unique_ptr<PreviewWriter> preview;
     if (options.preview)
         preview = std::make_unique<PreviewWriter>(
@@ -297,8 +371,13 @@ void run_simulation(const RunOptions& options)
     const double setup_seconds = total.seconds();
 
     RunStats recorder(simulation, scene.gravity, stats, measure, options.check_collisions);
+    if (stats)
+        recorder.open_frame_log(frame_log_path(options.stats), resume_frame);
     Timer loop;
-    run_frames(simulation, scene, frames, recorder, exporter, preview.get());
+    const CheckpointPlan checkpoints { options.output + "/checkpoint.h5", &identity,
+        options.checkpoint_every };
+    run_frames(simulation, scene, resume_frame + 1, frames, checkpoints, options.progress_every,
+        recorder, exporter, preview.get());
     const double loop_seconds = loop.seconds();
 
     const RunTotals totals { frames,

@@ -27,10 +27,18 @@ struct RunOptions {
     /// "reference_error": {"rms_percent", "max_percent", "diagonal", "reference",
     /// "frame_rms_percent", "frame_max_percent"} (the last two: per output frame).
     std::string reference;
+    /// Continue the run in `output` from its checkpoint (runtime/output/checkpoint.hpp); without
+    /// one, start at frame 0. Refused if the checkpoint is of another scene, bake or solver.
+    bool resume = false;
+    /// Frames between checkpoints (0: at the last frame only).
+    int checkpoint_every = 10;
+    /// Seconds between progress lines when stderr is not a terminal (0: none).
+    double progress_every = 10.0;
 };
 
 /// Runs the scene. Throws mat::Error on bad input or a failing solve; files already written
-/// stay (each one is complete), the trajectory cache and the stats file only appear at the end.
+/// stay (each one is complete; the trajectory cache, the --stats JSON Lines file and the
+/// checkpoint hold the frames completed; the --stats JSON appears at the end).
 void run_simulation(const RunOptions& options);
 
 } // namespace mat

@@ -1,6 +1,9 @@
 #include "runtime/run_stats.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <sstream>
 
 #include "common/log.hpp"
 #include "common/timer.hpp"
@@ -105,6 +108,14 @@ namespace {
 
 } // namespace
 
+std::string frame_log_path(const std::string& stats)
+{
+    const std::string extension = ".json";
+    const bool json = stats.size() > extension.size()
+        && stats.compare(stats.size() - extension.size(), extension.size(), extension) == 0;
+    return (json ? stats.substr(0, stats.size() - extension.size()) : stats) + ".frames.jsonl";
+}
+
 SolverTimings total_timings(const Simulation& simulation)
 {
     SolverTimings sum;
@@ -127,9 +138,39 @@ RunStats::RunStats(const Simulation& simulation, const Vec3& gravity, bool stats
     , m_stats(stats)
     , m_measure(measure)
     , m_check_collisions(check_collisions)
+    , m_first_step(simulation.steps())
     , m_tet_strain(simulation.bodies().size())
     , m_before(total_timings(simulation))
 {
+}
+
+void RunStats::open_frame_log(const std::string& path, int resume_frame)
+{
+    m_log_path = path;
+    m_resume_frame = resume_frame;
+    std::string kept;
+    if (resume_frame >= 0) {
+        // Complete lines only (a killed run may have left a partial last line), up to the frame.
+        std::istringstream lines(text_io::read_file(path));
+        std::string line;
+        while (std::getline(lines, line) && !lines.eof()) {
+            const nlohmann::json entry = nlohmann::json::parse(line, nullptr, false);
+            if (entry.is_discarded() || !entry.contains("frame")
+                || entry["frame"].get<int>() != static_cast<int>(m_frames.size())
+                || entry["frame"].get<int>() > resume_frame)
+                break;
+            kept += line + "\n";
+            m_frames.push_back(entry);
+        }
+        if (static_cast<int>(m_frames.size()) != resume_frame + 1)
+            logger().warn("{}: holds {} of the {} frames before the resumed run: --stats lists "
+                          "only those",
+                path, m_frames.size(), resume_frame + 1);
+    }
+    text_io::write_file_atomically(path, kept);
+    m_log.reset(std::fopen(path.c_str(), "a"));
+    if (!m_log)
+        throw_error("{}: cannot append to it: {}", path, std::strerror(errno));
 }
 
 void RunStats::start_frame()
@@ -209,6 +250,11 @@ void RunStats::record_frame(
         entry["collision"] = collision_json(m_frame_collision);
     if (m_check_collisions && frame > 0)
         entry["collision_check"] = check_json(m_frame_check);
+    if (m_log) {
+        const std::string line = entry.dump() + "\n";
+        if (std::fputs(line.c_str(), m_log.get()) < 0 || std::fflush(m_log.get()) != 0)
+            throw_error("{}: cannot append frame {}: {}", m_log_path, frame, std::strerror(errno));
+    }
     m_frames.push_back(std::move(entry));
     m_before = now;
 }
@@ -219,19 +265,24 @@ void RunStats::add_finish_seconds(double export_seconds, double preview_seconds)
     m_preview_seconds += preview_seconds;
 }
 
+long RunStats::run_steps() const
+{
+    return m_simulation.steps() - m_first_step;
+}
+
 double RunStats::sleeping_mean() const
 {
-    const long steps = m_simulation.steps();
+    const long steps = run_steps();
     return steps > 0 ? static_cast<double>(m_sleeping_steps) / static_cast<double>(steps) : 0.0;
 }
 
 void RunStats::write(const std::string& path, const nlohmann::json& run_json, double setup_seconds,
     double loop_seconds, const TrajectoryError* reference_error, const std::string& reference)
 {
-    const long steps = m_simulation.steps();
+    const long steps = run_steps();
     const double per_step = steps > 0 ? 1e3 / static_cast<double>(steps) : 0.0;
     nlohmann::json document { { "run", run_json }, { "setup_seconds", setup_seconds },
-        { "loop_seconds", loop_seconds }, { "steps", steps },
+        { "loop_seconds", loop_seconds }, { "steps", m_simulation.steps() },
         { "peak_rss_bytes", peak_rss_bytes() }, { "sleeping", m_simulation.num_sleeping() },
         { "sleeping_mean", sleeping_mean() },
         { "ms_per_step",
@@ -241,6 +292,8 @@ void RunStats::write(const std::string& path, const nlohmann::json& run_json, do
         document["collision_ms_per_step"] = collision_phase_json(m_total_collision, per_step);
     if (m_check_collisions)
         document["collision_check"] = check_json(m_total_check);
+    if (m_resume_frame >= 0)
+        document["resumed_from_frame"] = m_resume_frame;
     if (reference_error != nullptr)
         document["reference_error"] = { { "rms_percent", reference_error->rms_percent },
             { "max_percent", reference_error->max_percent },

@@ -3,6 +3,8 @@
 // --stats file written from them at the end (docs/mat-run.md, "Outputs and statistics") and the
 // totals of the end-of-run summary.
 
+#include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +24,10 @@ class Simulation;
 /// Phase totals of all bodies' solvers.
 SolverTimings total_timings(const Simulation& simulation);
 
+/// The per-frame JSON Lines file beside the --stats file `stats`: "run.json" -> "run.frames.jsonl"
+/// (docs/mat-run.md, "Outputs and statistics").
+std::string frame_log_path(const std::string& stats);
+
 /// Accumulates a run's per-frame JSON and report data, and writes --stats at the end.
 class RunStats {
 public:
@@ -29,6 +35,14 @@ public:
     /// frame (--stats or a stretch field to export); `check_collisions`: --check-collisions.
     RunStats(const Simulation& simulation, const Vec3& gravity, bool stats, bool measure,
         bool check_collisions);
+
+    /// With --stats: appends every frame's entry to the JSON Lines file `path` as well, one line
+    /// each, flushed (a killed run's file holds every frame it completed; a last line without
+    /// its newline is incomplete). `resume_frame` >= 0: the run continues after that frame: the
+    /// file's entries up to it are kept (the file is rewritten atomically without the later
+    /// ones) and go into the final document; else the file starts empty. Throws mat::Error if
+    /// the file cannot be written.
+    void open_frame_log(const std::string& path, int resume_frame);
 
     /// Starts a frame's steps: clears the per-frame maxima and sums.
     void start_frame();
@@ -53,8 +67,10 @@ public:
     const CollisionReport& total_collision() const { return m_total_collision; }
     /// The --check-collisions counts of all steps added up.
     const CollisionCheckCounts& total_check() const { return m_total_check; }
-    /// Bodies asleep after a step, on average over the steps (0 before any step).
+    /// Bodies asleep after a step, on average over this run's steps (0 before any step).
     double sleeping_mean() const;
+    /// Steps this run made (a resumed run: since it resumed).
+    long run_steps() const;
 
     /// Writes the --stats document to `path` atomically (once, at the end: the frames move out).
     /// `reference_error`: null without --reference.
@@ -67,6 +83,10 @@ private:
     bool m_stats;
     bool m_measure;
     bool m_check_collisions;
+    long m_first_step = 0; ///< the simulation's steps when this run began (resumed: > 0)
+    int m_resume_frame = -1;
+    std::string m_log_path;
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> m_log { nullptr, &std::fclose };
     std::vector<VecX> m_tet_strain; ///< per body, from the last measure_frame()
     nlohmann::json m_bodies; ///< per body, from the last measure_frame()
     Vec3 m_momentum = Vec3::Zero(); ///< summed over the bodies at the last measure_frame()

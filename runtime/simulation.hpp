@@ -36,6 +36,27 @@
 
 namespace mat {
 
+/// What the next steps read of one body that earlier steps wrote: restored into a simulation
+/// of the same scene and bakes, the next steps are bitwise those of the run it was taken from
+/// (runtime/output/checkpoint.hpp writes it; docs/mat-run.md, "Outputs and statistics").
+struct BodySnapshot {
+    MatX3 positions; ///< n x 3
+    MatX3 velocities; ///< n x 3
+    MatX3 pin_targets; ///< #pinned x 3: the body's last targets, and its solver's
+    MatX3 solver_pin_targets;
+    MatX q; ///< k x 3 reduced coordinates (a dynamic body of a reduced solver; else empty)
+    std::vector<float> warm; ///< the local step's warm start (a dynamic body; else empty)
+    ContactWarmStart contact; ///< the contact stage's forces of the last step
+    bool asleep = false;
+    int slow_steps = 0;
+    bool moved = true;
+};
+
+struct SimulationSnapshot {
+    long steps = 0;
+    std::vector<BodySnapshot> bodies; ///< in the scene's object order
+};
+
 class Simulation {
 public:
     /// Takes the scene's bodies (load_bodies(scene, ...), in the scene's object order) and sets
@@ -54,6 +75,12 @@ public:
     const CollisionWorld* collision() const { return m_collision.get(); }
     /// Bodies asleep now.
     int num_sleeping() const;
+
+    /// The state between two steps (runtime/simulation_snapshot.cpp).
+    SimulationSnapshot snapshot() const;
+    /// Continues from a snapshot of a simulation of the same scene and bakes (before any step of
+    /// this one). Throws mat::Error if a body's sizes differ.
+    void restore(const SimulationSnapshot& snapshot);
 
 private:
     /// Wakes the sleeping bodies whose box meets the box of a body that moves (a kinematic

@@ -10,7 +10,7 @@
 namespace mat {
 
 Exporter::Exporter(const Simulation& simulation, const OutputSettings& output,
-    std::string directory, const std::string& run_json)
+    std::string directory, const std::string& run_json, int frames, int resume_frame)
     : m_directory(std::move(directory))
 {
     const auto has = [](const auto& list, auto item) {
@@ -27,16 +27,56 @@ Exporter::Exporter(const Simulation& simulation, const OutputSettings& output,
         m_surface.emplace_back(body.model->surface().num_vertices(), 3);
         m_surface_velocity.emplace_back(body.model->surface().num_vertices(), 3);
     }
-    if (m_h5) {
-        std::vector<TrajectoryObject> objects;
-        for (std::size_t b = 0; b < bodies.size(); ++b) {
-            bodies[b].model->surface().positions(bodies[b].state.positions, m_surface[b]);
-            objects.push_back(TrajectoryObject {
-                bodies[b].name, bodies[b].model->surface().faces(), m_surface[b] });
+    if (m_h5)
+        start_trajectory(simulation, run_json, frames, resume_frame);
+    if (m_vtu) // the collection lists the kept frames
+        for (int frame = 0; frame <= resume_frame; ++frame) {
+            const Scene& scene = simulation.scene();
+            const double time = static_cast<double>(long(frame) * scene.steps_per_frame)
+                * scene.time.dt; // as Simulation::time() gives it
+            for (std::size_t b = 0; b < bodies.size(); ++b)
+                m_pvd.push_back(PvdEntry { time, static_cast<int>(b),
+                    fmt::format("{}_{:05d}.vtu", bodies[b].name, frame) });
         }
-        m_trajectory
-            = std::make_unique<TrajectoryWriter>(m_directory + "/trajectory.h5", objects, run_json);
+}
+
+void Exporter::start_trajectory(
+    const Simulation& simulation, const std::string& run_json, int frames, int resume_frame)
+{
+    const auto& bodies = simulation.bodies();
+    const std::string path = m_directory + "/trajectory.h5";
+    // Rest positions: the bodies' placed rest state (of the first frame when resuming).
+    std::unique_ptr<TrajectoryReader> kept;
+    if (resume_frame >= 0) {
+        kept = std::make_unique<TrajectoryReader>(path);
+        if (kept->frame_count() < Index(resume_frame) + 1)
+            throw_error("{}: holds {} frames, the checkpoint is at frame {} (run without --resume "
+                        "to start over)",
+                path, kept->frame_count(), resume_frame);
+        if (kept->object_names().size() != bodies.size())
+            throw_error("{}: has {} objects, the scene {}", path, kept->object_names().size(),
+                bodies.size());
     }
+    std::vector<TrajectoryObject> objects;
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        if (kept && kept->object_names()[b] != bodies[b].name)
+            throw_error("{}: object {} is '{}', the scene's is '{}'", path, b,
+                kept->object_names()[b], bodies[b].name);
+        const MatX3 rest = kept ? kept->rest_positions(Index(b)) : [&] {
+            MatX3 surface(bodies[b].model->surface().num_vertices(), 3);
+            bodies[b].model->surface().positions(bodies[b].state.positions, surface);
+            return surface;
+        }();
+        objects.push_back(
+            TrajectoryObject { bodies[b].name, bodies[b].model->surface().faces(), rest });
+    }
+    H5WriterOptions unlocked; // readable by others while the run writes it
+    unlocked.file_locking = false;
+    m_trajectory = std::make_unique<TrajectoryWriter>(
+        path, objects, run_json, unlocked, TrajectoryLayout { Index(frames) + 1, m_velocity });
+    if (kept)
+        copy_frames(*kept, *m_trajectory, Index(resume_frame) + 1);
+    m_trajectory->publish();
 }
 
 Exporter::~Exporter() = default;
@@ -96,6 +136,7 @@ void Exporter::finish()
 {
     if (m_trajectory) {
         m_trajectory->commit();
+        m_trajectory.reset();
         ++m_files;
     }
 }

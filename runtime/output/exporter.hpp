@@ -7,9 +7,10 @@
 //                                             of the vertex's tet), and a ParaView collection
 //                                             rewritten after every frame
 //   h5        trajectory.h5                    every frame of every body in one HDF5 cache
-//                                             (formats/trajectory_io.hpp), renamed into place
-//                                             when the run ends
-// Every file appears atomically.
+//                                             (formats/trajectory_io.hpp) with the run's frames
+//                                             reserved: in place from the first frame on, and
+//                                             readable to the last complete frame at any moment
+// Every other file appears atomically.
 
 #include <memory>
 #include <string>
@@ -26,9 +27,13 @@ class TrajectoryWriter;
 
 class Exporter {
 public:
-    /// `directory` must exist. `run_json` is stored in the trajectory cache.
+    /// `directory` must exist. `run_json` is stored in the trajectory cache, which reserves
+    /// `frames` + 1 frames (0 to `frames`). `resume_frame` >= 0: the run goes on after that frame
+    /// (mat-run --resume): the frames 0 to resume_frame of the directory's trajectory cache are
+    /// kept (copied into the new one before it replaces the old), and frames.pvd lists them.
+    /// Throws mat::Error if the cache to resume has fewer frames.
     Exporter(const Simulation& simulation, const OutputSettings& output, std::string directory,
-        const std::string& run_json);
+        const std::string& run_json, int frames, int resume_frame = -1);
     ~Exporter();
 
     bool wants_stretch() const { return m_stretch; }
@@ -44,6 +49,9 @@ public:
 
 private:
     std::string frame_path(const std::string& body, int frame, const char* extension) const;
+    /// The trajectory cache: a new reserved file, with the kept frames of the old one.
+    void start_trajectory(
+        const Simulation& simulation, const std::string& run_json, int frames, int resume_frame);
 
     std::string m_directory;
     bool m_obj = false, m_ply = false, m_vtu = false, m_h5 = false;

@@ -26,6 +26,7 @@ void ContactStage::init_body(int b, PdSolver& solver)
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     data.margin = solver.options().contact_margin * diagonal;
     const Index num_planes = static_cast<Index>(solver.options().planes.size());
+    data.num_planes = num_planes;
     data.previous_ground = MatX3::Zero(model.num_nodes() * num_planes, 3);
     data.previous_pair = MatX3::Zero(model.num_nodes(), 3);
     if (num_planes > 0)

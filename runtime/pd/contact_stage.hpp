@@ -82,6 +82,14 @@ struct BodyContacts {
     }
 };
 
+/// What a contact stage carries from one step to the next for one body: the forces its
+/// contacts ended the last step with (the next step's warm start), as (node, plane) pairs (plane
+/// -1: a contact between bodies, by key) and their forces  #used x 3.
+struct ContactWarmStart {
+    std::vector<std::array<int, 2>> used;
+    MatX3 forces;
+};
+
 /// One body as the stage sees it during a step.
 struct ContactBodyState {
     /// Its solver, if it is stepped this step (its begin_step() has run); null: a constant body.
@@ -112,6 +120,12 @@ public:
     void end_step();
 
     Index num_contacts() const { return static_cast<Index>(m_records.size()); }
+
+    /// Body b's warm start for the next step (empty before its first step).
+    ContactWarmStart warm_start(int b) const;
+    /// Restores a warm_start() of body b, whose solver is `solver` (a checkpoint's). Throws
+    /// mat::Error on a node or plane out of range.
+    void set_warm_start(int b, PdSolver& solver, const ContactWarmStart& warm);
     /// The contact forces of the last solve  #contacts x 3 (on the first term's side).
     const MatX3& forces() const { return m_forces; }
 
@@ -139,6 +153,7 @@ private:
         bool initialized = false;
         std::vector<int> boundary; ///< boundary nodes (ground candidates)
         double margin = 0.0; ///< absolute ground candidate distance
+        Index num_planes = 0; ///< its solver's ground planes
         MatX3 previous_ground; ///< #nodes * #planes x 3: last step's ground forces
         MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)
         std::vector<std::array<int, 2>> used; ///< (node, plane or -1) warm starts read

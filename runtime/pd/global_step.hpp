@@ -50,6 +50,11 @@ public:
     virtual ContactResponse& contact_response() = 0;
     /// The kept reduced coordinates q  k x 3, or null for a full-space step.
     virtual const MatX* reduced_coordinates() const { return nullptr; }
+    /// Replaces the kept reduced coordinates (a reduced step only).
+    virtual void set_reduced_coordinates(const Eigen::Ref<const MatX>& q)
+    {
+        throw_error("global step: a full-space step keeps no reduced coordinates");
+    }
     /// Writes the kept solution's positions  n x 3.
     virtual void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) = 0;
 };
@@ -102,7 +107,7 @@ public:
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
     void solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings);
     /// Replaces the kept solution by `q`  k x 3.
-    void set_reduced_coordinates(const Eigen::Ref<const MatX>& q);
+    void set_reduced_coordinates(const Eigen::Ref<const MatX>& q) override;
     /// The basis products the step uses (B^T y, X + B q).
     BasisProducts& products() { return m_products; }
 

@@ -29,6 +29,7 @@
 #include <memory>
 #include <vector>
 
+#include "runtime/pd/local_step.hpp"
 #include "runtime/pd/solver.hpp"
 
 namespace mat {
@@ -51,6 +52,7 @@ public:
         const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
     bool reads_iterate() const override { return false; }
     Index num_tets() const override { return static_cast<Index>(m_samples.size()); }
+    LocalStep& local_step() override { return *m_local; }
 
     const std::vector<int>& sample_tets() const { return m_samples; }
 

@@ -407,4 +407,24 @@ void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& posit
         });
 }
 
+std::vector<float> LocalStep::warm_start() const
+{
+    constexpr std::size_t per_block = sizeof(RotationBlock::q) / sizeof(float);
+    std::vector<float> warm(m_warm.size() * per_block);
+    for (std::size_t b = 0; b < m_warm.size(); ++b)
+        std::copy(&m_warm[b].q[0][0], &m_warm[b].q[0][0] + per_block, warm.data() + b * per_block);
+    return warm;
+}
+
+void LocalStep::set_warm_start(const std::vector<float>& warm)
+{
+    constexpr std::size_t per_block = sizeof(RotationBlock::q) / sizeof(float);
+    if (warm.size() != m_warm.size() * per_block)
+        throw_error("local step: a warm start of {} values, expected {}", warm.size(),
+            m_warm.size() * per_block);
+    for (std::size_t b = 0; b < m_warm.size(); ++b)
+        std::copy(
+            warm.data() + b * per_block, warm.data() + (b + 1) * per_block, &m_warm[b].q[0][0]);
+}
+
 } // namespace mat

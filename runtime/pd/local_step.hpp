@@ -117,6 +117,13 @@ public:
     /// Number of chunks (for the benchmark's report).
     int num_chunks() const { return static_cast<int>(m_chunk_blocks.size()) - 1; }
 
+    /// The warm start of the next projections (each tet's last rotation, a unit quaternion as 4
+    /// floats per lane), flattened: what a checkpoint keeps so that a resumed run projects the
+    /// same way (runtime/output/checkpoint.hpp).
+    std::vector<float> warm_start() const;
+    /// Restores a warm_start() of a step of the same model; throws mat::Error on a size mismatch.
+    void set_warm_start(const std::vector<float>& warm);
+
 private:
     struct alignas(64) Block {
         double dm_inverse[9][projection_lanes]; ///< Dm^-1 (r, c) at [3 r + c]

@@ -95,6 +95,9 @@ public:
     virtual bool reads_iterate() const = 0;
     /// How many tets the local step projects.
     virtual Index num_tets() const = 0;
+    /// The local step (its warm start goes into checkpoints).
+    virtual LocalStep& local_step() = 0;
+    const LocalStep& local_step() const { return const_cast<LocalStage*>(this)->local_step(); }
 };
 
 /// The local step over every tet (semi-reduced and full-space PD).
@@ -105,6 +108,7 @@ public:
         const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
     bool reads_iterate() const override { return true; }
     Index num_tets() const override { return m_num_tets; }
+    LocalStep& local_step() override { return m_local; }
 
 private:
     LocalStep m_local;
@@ -145,8 +149,14 @@ public:
     const StepReport& last_report() const { return m_report; }
     /// The kept reduced coordinates q  k x 3 (x = X + B q), or null for full-space PD.
     const MatX* reduced_coordinates() const { return m_global->reduced_coordinates(); }
+    /// Replaces the kept q (a checkpoint's; not for full-space PD, which keeps none).
+    void set_reduced_coordinates(const Eigen::Ref<const MatX>& q)
+    {
+        m_global->set_reduced_coordinates(q);
+    }
 
     const LocalStage& local_stage() const { return *m_local; }
+    LocalStage& local_stage() { return *m_local; }
 
     // For the contact stage, during a step:
     ContactResponse& contact_response() { return m_global->contact_response(); }

@@ -3,7 +3,8 @@
 # mode (semi, full, hyper; collision scenes with --check-collisions) and writes OUT_DIR/digest.txt:
 # per run, a hash of every output frame file and a hash of the --stats JSON without its timings.
 # Two builds whose digests are equal write the same frames and statistics: the check that a
-# refactor changed no output (diff the two digest.txt files). Needs the samples' bakes
+# refactor changed no output (diff the two digest.txt files). The run's checkpoint.h5 (for
+# --resume) is state, not output: it is left out. Needs the samples' bakes
 # (make -C samples; the collision scenes use creature/creature_coarse.h5, made by
 # samples/demo.sh or `mat-bake samples/creature/creature.obj --medial samples/creature/creature.ma
 # --tet-size 0.04 -o samples/creature/creature_coarse.h5`).
@@ -49,7 +50,7 @@ for d in sorted(glob.glob(out + '/*.*')):
         continue
     frames = hashlib.sha256()
     for f in sorted(glob.glob(d + '/**/*', recursive=True)):
-        if os.path.isfile(f) and not f.endswith('.png'):
+        if os.path.isfile(f) and not f.endswith('.png') and os.path.basename(f) != 'checkpoint.h5':
             frames.update(f[len(d):].encode())
             frames.update(open(f, 'rb').read())
     stats_file = d + '.stats.json'

@@ -1,10 +1,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "common/error.hpp"
+#include "formats/atomic_file.hpp"
 #include "formats/hdf5_file.hpp"
 #include "formats/trajectory_io.hpp"
 #include "tests/support/error_checks.hpp"
@@ -63,7 +70,7 @@ namespace {
         write_three_frames(file, true);
         const auto objects = two_objects();
         const TrajectoryReader reader(file);
-        EXPECT_EQ(reader.version(), 1);
+        EXPECT_EQ(reader.version(), trajectory_format_version);
         EXPECT_EQ(reader.options(), R"({"dt": 0.01})");
         ASSERT_EQ(reader.frame_count(), 3);
         for (int f = 0; f < 3; ++f)
@@ -195,8 +202,8 @@ namespace {
             { path("bake.h5"), "medial-elastics-bake", "medial-elastics-trajectory" });
         expect_error_containing(
             [&] { TrajectoryReader reader(path("none.h5")); }, { path("none.h5"), "format_name" });
-        expect_error_containing(
-            [&] { TrajectoryReader reader(path("newer.h5")); }, { path("newer.h5"), "version 2" });
+        expect_error_containing([&] { TrajectoryReader reader(path("newer.h5")); },
+            { path("newer.h5"), fmt::format("version {}", trajectory_format_version + 1) });
         expect_error_containing([&] { TrajectoryReader reader(path("absent.h5")); },
             { path("absent.h5"), "no such file" });
     }
@@ -207,6 +214,7 @@ namespace {
         {
             H5Writer out(path("bad.h5"));
             out.stamp_format(trajectory_format_name, trajectory_format_version);
+            out.set_attribute("/", "frame_count", std::int64_t(2));
             out.create_series("time", {});
             out.append("time", 0.0);
             out.append("time", 1.0);
@@ -220,6 +228,76 @@ namespace {
         }
         expect_error_containing([&] { TrajectoryReader reader(path("bad.h5")); },
             { path("bad.h5"), "'/objects/body/positions'", "1 x 2 x 3", "2 x 2 x 3" });
+    }
+
+    // A reserved trajectory (the one mat-run writes) whose writer is killed with SIGKILL after
+    // `frames` appends, in a child process: the file must hold exactly those frames.
+    TEST_F(Trajectory, ReservedFileKeepsTheFramesOfAKilledWriter)
+    {
+        const std::string file = path("killed.h5");
+        const auto objects = two_objects();
+        constexpr int frames = 5;
+        const pid_t child = fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            TrajectoryWriter writer(
+                file, objects, "{}", H5WriterOptions {}, TrajectoryLayout { 40, true });
+            writer.publish();
+            for (int f = 0; f < frames; ++f) {
+                const std::vector<MatX3> velocities = frame_values(objects, f, -2.0);
+                writer.append(0.01 * f, frame_values(objects, f, 1.0), &velocities);
+            }
+            raise(SIGKILL);
+        }
+        int status = 0;
+        ASSERT_EQ(waitpid(child, &status, 0), child);
+        ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+        const TrajectoryReader reader(file);
+        ASSERT_EQ(reader.frame_count(), frames);
+        ASSERT_TRUE(reader.has_velocities());
+        for (int f = 0; f < frames; ++f) {
+            EXPECT_EQ(reader.times()[f], 0.01 * f);
+            for (Index o = 0; o < 2; ++o) {
+                EXPECT_EQ(reader.positions(o, f), frame_values(objects, f, 1.0)[std::size_t(o)]);
+                EXPECT_EQ(reader.velocities(o, f), frame_values(objects, f, -2.0)[std::size_t(o)]);
+            }
+        }
+        expect_error_containing([&] { reader.positions(0, frames); }, { "frame 5 does not exist" });
+        // Copied into a new file (what --resume does), then completed.
+        TrajectoryWriter rebuilt(
+            path("rebuilt.h5"), objects, "{}", H5WriterOptions {}, TrajectoryLayout { 6, true });
+        copy_frames(reader, rebuilt, 3);
+        EXPECT_EQ(rebuilt.frame_count(), 3);
+        rebuilt.publish();
+        const std::vector<MatX3> velocities = frame_values(objects, 3, -2.0);
+        for (int f = 3; f < 6; ++f)
+            rebuilt.append(0.01 * f, frame_values(objects, f, 1.0), &velocities);
+        EXPECT_EQ(rebuilt.frame_count(), 6);
+        expect_error_containing(
+            [&] { rebuilt.append(1.0, frame_values(objects, 6, 1.0), &velocities); },
+            { "6 frames were reserved" });
+    }
+
+    TEST_F(Trajectory, StaleTemporariesOfDeadProcessesAreRemoved)
+    {
+        const pid_t child = fork();
+        ASSERT_GE(child, 0);
+        if (child == 0)
+            _exit(0);
+        ASSERT_EQ(waitpid(child, nullptr, 0), child);
+        const std::string dead = path(fmt::format(".trajectory.h5.{}.0.tmp", child));
+        const std::string mine = path(fmt::format(".trajectory.h5.{}.3.tmp", getpid()));
+        const std::string other = path(fmt::format(".stats.json.{}.0.tmp", child));
+        const std::string unrelated = path(".notes.tmp");
+        for (const std::string& f : { dead, mine, other, unrelated })
+            std::ofstream(f) << "x";
+        EXPECT_EQ(remove_stale_temporaries(dir().string(), "trajectory.h5"), 1);
+        EXPECT_FALSE(std::filesystem::exists(dead));
+        EXPECT_TRUE(std::filesystem::exists(other));
+        EXPECT_EQ(remove_stale_temporaries(dir().string()), 1);
+        EXPECT_FALSE(std::filesystem::exists(other));
+        EXPECT_TRUE(std::filesystem::exists(mine)); // this process may be writing it
+        EXPECT_TRUE(std::filesystem::exists(unrelated));
     }
 
 } // namespace
