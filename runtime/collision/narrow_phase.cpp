@@ -226,8 +226,8 @@ void NarrowPhase::file_faces(
 
 void NarrowPhase::face_motion(const NarrowPhaseBody& body, BodyData& data)
 {
-    // Per position in the grid, the corners' motion (see face_out_of_reach and
-    // relative_out_of_reach), then the body's mean velocity and spread over its active faces.
+    // Per position in the grid, the corners' motion (see face_out_of_reach), then the body's
+    // mean velocity and spread over its active faces.
     const std::size_t n = data.grid.items.size();
     data.motion.assign(n, BodyData::FaceMotion {});
     data.mean_velocity = Vec3::Zero();
