@@ -115,6 +115,9 @@ public:
     void set_attribute(const std::string& object, const std::string& name, std::int64_t value);
     void set_attribute(const std::string& object, const std::string& name, int value);
     void set_attribute(const std::string& object, const std::string& name, double value);
+    /// A 1-D integer attribute of values.size() entries (a CSR group's `shape` is one).
+    void set_attribute(const std::string& object, const std::string& name,
+        const std::vector<std::int64_t>& values);
 
     /// Series: a 64-bit float dataset that grows by one item per append(), for what a run saves
     /// every frame without holding the run in memory. `item_shape` is the shape of one item,

@@ -1,7 +1,6 @@
 // H5Writer: an HDF5 file written into an AtomicFile temporary, renamed on commit().
 
 #include <algorithm>
-#include <array>
 #include <map>
 
 #include "common/error.hpp"
@@ -381,8 +380,7 @@ void H5Writer::write_sparse(const std::string& path, const SparseRowMat& matrix)
         group + "/data", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, { nnz }, source->valuePtr());
     const Hid type = impl.text_type("attribute 'encoding'", "csr");
     impl.write_attribute(group, "encoding", type.get(), type.get(), {}, "csr");
-    const std::array<std::int64_t, 2> shape { source->rows(), source->cols() };
-    impl.write_attribute(group, "shape", H5T_STD_I64LE, H5T_NATIVE_INT64, { 2 }, shape.data());
+    set_attribute(group, "shape", std::vector<std::int64_t> { source->rows(), source->cols() });
 }
 
 void H5Writer::write_string(const std::string& path, const std::string& text)
@@ -416,6 +414,13 @@ void H5Writer::set_attribute(const std::string& object, const std::string& name,
 void H5Writer::set_attribute(const std::string& object, const std::string& name, double value)
 {
     m_impl->write_attribute(object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {}, &value);
+}
+
+void H5Writer::set_attribute(
+    const std::string& object, const std::string& name, const std::vector<std::int64_t>& values)
+{
+    m_impl->write_attribute(
+        object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, { hsize_t(values.size()) }, values.data());
 }
 
 void H5Writer::stamp_format(const std::string& name, int version)

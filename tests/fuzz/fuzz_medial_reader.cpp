@@ -4,22 +4,13 @@
 
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <string_view>
 
 #include "common/error.hpp"
-#include "common/log.hpp"
 #include "formats/medial_io.hpp"
+#include "tests/fuzz/fuzz_support.hpp"
 
 namespace {
-
-void check(bool condition, const char* what)
-{
-    if (!condition) {
-        std::fprintf(stderr, "fuzz_medial_reader: invariant broken: %s\n", what);
-        std::abort();
-    }
-}
 
 bool same(const mat::MedialMesh& a, const mat::MedialMesh& b)
 {
@@ -30,8 +21,10 @@ bool same(const mat::MedialMesh& a, const mat::MedialMesh& b)
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
-    static const bool quiet = (mat::logger().set_level(spdlog::level::off), true);
-    (void)quiet;
+    mat::fuzz::quiet_logger();
+    const auto check = [](bool condition, const char* what) {
+        mat::fuzz::check(condition, "fuzz_medial_reader", what);
+    };
     const std::string_view text(reinterpret_cast<const char*>(data), size);
     mat::MedialMesh mesh;
     try {

@@ -4,31 +4,19 @@
 // a valid, positively oriented mesh; anything else is a finding.
 
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <string_view>
 
 #include "common/error.hpp"
-#include "common/log.hpp"
 #include "common/tet_geometry.hpp"
 #include "formats/tet_mesh_io.hpp"
-
-namespace {
-
-void check(bool condition, const char* what)
-{
-    if (!condition) {
-        std::fprintf(stderr, "fuzz_tet_mesh_reader: invariant broken: %s\n", what);
-        std::abort();
-    }
-}
-
-} // namespace
+#include "tests/fuzz/fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {
-    static const bool quiet = (mat::logger().set_level(spdlog::level::off), true);
-    (void)quiet;
+    mat::fuzz::quiet_logger();
+    const auto check = [](bool condition, const char* what) {
+        mat::fuzz::check(condition, "fuzz_tet_mesh_reader", what);
+    };
     if (size == 0)
         return 0;
     const std::string_view text(reinterpret_cast<const char*>(data) + 1, size - 1);

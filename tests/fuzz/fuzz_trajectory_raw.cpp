@@ -1,0 +1,18 @@
+// libFuzzer target for the trajectory reader on raw bytes: the input is the file itself (the seeds
+// are real trajectory files), written to a scratch path and read as the tools read it. This mostly
+// exercises HDF5's own parsing of a damaged container, which Debian's libhdf5 does without
+// instrumentation (docs/building.md, Fuzzing).
+
+#include <cstdint>
+
+#include "tests/fuzz/fuzz_support.hpp"
+#include "tests/fuzz/hdf5_checks.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+    mat::fuzz::quiet_logger();
+    const std::string path
+        = mat::fuzz::write_scratch("trajectory.h5", mat::fuzz::as_text(data, size));
+    mat::fuzz::read_and_check_trajectory(path, "fuzz_trajectory_raw");
+    return 0;
+}
