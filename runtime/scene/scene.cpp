@@ -330,7 +330,8 @@ namespace {
             }
             case Section::collider: {
                 ColliderSettings& collider = *std::get<ColliderSettings*>(target);
-                collider.normal.normalize();
+                // Scaled first: the squared norm of [1e300, 1e300, 0] overflows to infinity.
+                collider.normal.stableNormalize();
                 break;
             }
             default:

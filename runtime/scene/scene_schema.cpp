@@ -130,7 +130,9 @@ namespace {
 
     std::string check_nonzero(const Value& value)
     {
-        return std::get<Vec3>(value).squaredNorm() > 0.0 ? "" : "must not be the zero vector";
+        // The largest component, not the squared norm: that underflows to 0 for [1e-200, 0, 0].
+        return std::get<Vec3>(value).cwiseAbs().maxCoeff() > 0.0 ? ""
+                                                                 : "must not be the zero vector";
     }
 
     std::string check_strain_limits(const Value& value)

@@ -2,6 +2,7 @@
 // belongs, bake paths resolve against the scene's directory, the time settings derive steps per
 // frame and frame counts, and the Markdown reference lists every declared key.
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -189,6 +190,18 @@ namespace {
         EXPECT_EQ(scene.steps_per_frame, 3);
         EXPECT_EQ(scene.output.fields,
             (std::vector<OutputField> { OutputField::velocity, OutputField::stretch }));
+    }
+
+    TEST(SceneDefaults, CollidersNormalsOfExtremeMagnitudeBecomeUnit)
+    {
+        // Found by fuzzing: [1e300, 1e300, 0] normalized to the zero vector (its squared norm
+        // overflowed) and [1e-200, 0, 0] was refused as zero (its squared norm underflowed).
+        const Scene scene = parse(R"({"objects": [{"bake": "/abs/body.h5"}], "colliders": [
+            {"type": "plane", "normal": [1e300, 1e300, 0]},
+            {"type": "plane", "normal": [1e-200, 0, 0]}]})");
+        ASSERT_EQ(scene.colliders.size(), 2u);
+        expect_vec3(scene.colliders[0].normal, std::sqrt(0.5), std::sqrt(0.5), 0);
+        expect_vec3(scene.colliders[1].normal, 1, 0, 0);
     }
 
     TEST(SceneDefaults, IntegralNumbersAreIntegersAndAFormatMayBeOneString)
