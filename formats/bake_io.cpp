@@ -1,5 +1,6 @@
 #include "formats/bake_io.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <vector>
@@ -110,6 +111,62 @@ namespace {
                 throw_error("{}: {}: decreases at entry {}", file, dataset, i + 1);
     }
 
+    template <typename Derived>
+    void check_finite(
+        const std::string& file, const std::string& dataset, const Eigen::DenseBase<Derived>& a)
+    {
+        for (Index i = 0; i < a.rows(); ++i)
+            for (Index j = 0; j < a.cols(); ++j)
+                if (!std::isfinite(a(i, j)))
+                    throw_error(
+                        "{}: {}: entry ({}, {}) = {} is not finite", file, dataset, i, j, a(i, j));
+    }
+
+    void check_finite(const std::string& file, const std::string& group, const SparseRowMatrix& a)
+    {
+        for (Index k = 0; k < a.nonZeros(); ++k)
+            if (!std::isfinite(a.valuePtr()[k]))
+                throw_error(
+                    "{}: {}/data: entry {} = {} is not finite", file, group, k, a.valuePtr()[k]);
+    }
+
+    void check_positive(const std::string& file, const std::string& dataset, const VecX& values)
+    {
+        for (Index i = 0; i < values.size(); ++i)
+            if (!(values(i) > 0.0) || !std::isfinite(values(i)))
+                throw_error("{}: {}: entry {} = {}, expected a finite value > 0", file, dataset, i,
+                    values(i));
+    }
+
+    // The numbers a bake can hold only if it is damaged: NaN or infinite values anywhere,
+    // volumes, masses, radii or handle scales <= 0.
+    void check_values(const std::string& f, const BakeData& b)
+    {
+        check_finite(f, "mesh/rest_positions", b.tet_mesh.positions);
+        check_finite(f, "mesh/dm_inverse", b.dm_inverse);
+        check_positive(f, "mesh/rest_volumes", b.rest_volumes);
+        check_positive(f, "mesh/lumped_mass", b.lumped_mass);
+        check_finite(f, "surface/positions", b.surface.positions);
+        check_finite(f, "surface/barycentric", b.surface_barycentric);
+        check_finite(f, "medial/centers", b.medial.centers);
+        check_positive(f, "medial/radii", b.medial.radii);
+        check_positive(f, "medial/input_radii", b.medial_input_radii);
+        check_finite(f, "medial/barycentric", b.medial_barycentric);
+        if (!std::isfinite(b.medial_inflation) || b.medial_inflation < 0.0)
+            throw_error("{}: medial: attribute 'inflation' = {}, expected a finite value >= 0", f,
+                b.medial_inflation);
+        check_finite(f, "handles/centers", b.handle_centers);
+        check_positive(f, "handles/scales", b.handle_scales);
+        check_finite(f, "weights", b.weights);
+        check_finite(f, "basis/nodes", b.basis);
+        check_finite(f, "basis/medial", b.medial_basis);
+        check_finite(f, "pd/laplacian", b.laplacian);
+        check_finite(f, "pd/reduced_laplacian", b.reduced_laplacian);
+        check_finite(f, "pd/reduced_mass", b.reduced_mass);
+        check_finite(f, "collision/vertex_parameter", b.collision.vertex_parameter);
+        check_finite(f, "collision/bound_factors", b.collision.bound_factors);
+    }
+
 } // namespace
 
 BakeData read_bake(const std::string& path)
@@ -192,6 +249,7 @@ BakeData read_bake(const std::string& path)
     check_indptr(
         f, "collision/bound_indptr", c.bound_indptr, num_primitives, c.bound_handles.size());
     check_range(f, "collision/bound_handles", c.bound_handles, m);
+    check_values(f, b);
     return b;
 }
 

@@ -2,6 +2,7 @@
 // the bake (docs/method.md, section 2) on weights, basis, reduced matrices, collision bounds, the
 // HDF5 round trip and determinism.
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -20,6 +21,7 @@
 #include "preprocess/bake/bake_pipeline.hpp"
 #include "preprocess/collision/bound_data.hpp"
 #include "preprocess/weights/handle_regions.hpp"
+#include "tests/support/error_checks.hpp"
 #include "tests/support/temp_files.hpp"
 
 namespace mat {
@@ -226,6 +228,27 @@ namespace {
         expect_same_bake(cube_bake(), again);
         write_bake(second, again);
         EXPECT_EQ(read_bytes(first), read_bytes(second));
+    }
+
+    TEST(Bake, ReadingRefusesNumbersOnlyADamagedFileHolds)
+    {
+        const std::string path = std::string(MAT_BINARY_DIR) + "/tests/bake_test_damaged.h5";
+        const auto expect_refused = [&](const BakeData& bake, const std::string& part) {
+            write_bake(path, bake);
+            test::expect_error_containing([&] { read_bake(path); }, { path, part });
+        };
+        BakeData bake = cube_bake();
+        bake.tet_mesh.positions(3, 1) = std::nan("");
+        expect_refused(bake, "mesh/rest_positions: entry (3, 1) = nan is not finite");
+        bake = cube_bake();
+        bake.lumped_mass(0) = -1.0;
+        expect_refused(bake, "mesh/lumped_mass: entry 0 = -1, expected a finite value > 0");
+        bake = cube_bake();
+        bake.weights.valuePtr()[2] = HUGE_VAL;
+        expect_refused(bake, "weights/data: entry 2 = inf is not finite");
+        bake = cube_bake();
+        bake.medial.radii(1) = 0.0;
+        expect_refused(bake, "medial/radii: entry 1 = 0, expected a finite value > 0");
     }
 
     TEST(Bake, ParsesQuadraticSelection)
