@@ -65,6 +65,9 @@ for target in "${targets[@]}"; do
     "${command[@]}" > "$work/log.txt" 2>&1 || status=$?
     elapsed=$(($(date +%s) - start))
     executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/log.txt" | tail -n 1)
+    if [[ -z $executions ]]; then # -fork mode prints no final stats: its last status line
+        executions=$(sed -n 's/^#\([0-9][0-9]*\)[:\t ].*/\1/p' "$work/log.txt" | tail -n 1)
+    fi
     crashes=0
     hangs=0
     for artifact in "$work"/artifacts/*; do
