@@ -69,6 +69,7 @@ namespace {
 
     struct Shape {
         int rank = 1;
+        Index spare_items = 0; ///< a series: items reserved past those written (0: growing)
         Index dims[3] = { 0, 1, 1 };
         std::size_t values() const { return std::size_t(dims[0] * dims[1] * dims[2]); }
     };
@@ -76,7 +77,9 @@ namespace {
     Shape read_shape(RecipeReader& in)
     {
         Shape shape;
-        shape.rank = in.number<std::uint8_t>() % 3 + 1;
+        const int code = in.number<std::uint8_t>();
+        shape.rank = code % 3 + 1;
+        shape.spare_items = code / 3 % 4;
         for (int d = 0; d < shape.rank; ++d)
             shape.dims[d] = in.number<std::uint16_t>();
         return shape;
@@ -97,7 +100,10 @@ namespace {
             }
         }
         if (shape.rank == 3) {
-            out.create_series(path, { shape.dims[1], shape.dims[2] });
+            // A reserved series (spare items > 0) has rows past the items written, as a
+            // trajectory of a run that stopped early does.
+            const Index capacity = shape.spare_items > 0 ? shape.dims[0] + shape.spare_items : 0;
+            out.create_series(path, { shape.dims[1], shape.dims[2] }, capacity);
             RowMatX item(shape.dims[1], shape.dims[2]);
             for (Index i = 0; i < shape.dims[0]; ++i) {
                 for (Index k = 0; k < item.size(); ++k)

@@ -17,7 +17,8 @@
 //   7 float64 attribute name, f64 value
 //   shape: u8 rank code, rank = code % 3 + 1, then u16 per dimension; rank 1 = vector,
 //   2 = matrix, 3 = a series of rows x cols items (float64 only; integer data of rank 3 is
-//   written as the matrix of its first two dimensions).
+//   written as the matrix of its first two dimensions). A series with code / 3 % 4 = s > 0
+//   reserves s items past those written (H5Writer::create_series's capacity).
 // A record the writer refuses (a bad path, a dataset that exists) is skipped; so is a record of
 // more than 2^18 values or a series of more than 256 items, or one that reads past the
 // recipe's end once 64 KiB of zeros were read there (building a file costs time in proportion
