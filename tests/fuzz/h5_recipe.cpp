@@ -91,7 +91,10 @@ namespace {
         using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
         using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
         Shape shape = read_shape(in);
-        if (!in.affords(shape.values(), sizeof(Scalar)) || (shape.rank == 3 && shape.dims[0] > 256))
+        // A series of 0 items still makes one item's buffer: bound it too.
+        if (std::size_t(shape.dims[1] * shape.dims[2]) > max_values
+            || !in.affords(shape.values(), sizeof(Scalar))
+            || (shape.rank == 3 && shape.dims[0] > 256))
             return;
         if constexpr (!std::is_same_v<Scalar, double>) {
             if (shape.rank == 3) { // series hold float64 only: the first two dimensions
