@@ -11,7 +11,8 @@
 set -euo pipefail
 
 all_targets=(fuzz_medial_reader fuzz_tet_mesh_reader fuzz_surface_reader fuzz_scene_parser
-    fuzz_bake_structured fuzz_bake_raw fuzz_trajectory_structured fuzz_trajectory_raw)
+    fuzz_bake_structured fuzz_bake_raw fuzz_trajectory_structured fuzz_trajectory_raw
+    fuzz_checkpoint_structured)
 
 if [[ $# -lt 1 || ! $1 =~ ^[0-9]+([.][0-9]+)?$ ]]; then
     echo "usage: $0 MINUTES [TARGET...]   targets: ${all_targets[*]}" >&2
