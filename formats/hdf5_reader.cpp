@@ -191,7 +191,28 @@ struct H5Reader::Impl {
             throw_error("{}: cannot read dataset '{}': {}", path, dataset_path, h5::reason());
         opened.what = "dataset '" + dataset_path + "'";
         opened.dims = dims_of(opened.space.get(), opened.what);
+        check_storage(opened);
         return opened;
+    }
+
+    // A damaged file can claim more values than a dataset stores; HDF5 1.10 may then read past
+    // its own buffers (a heap overflow found by fuzzing, docs/building.md, Fuzzing). H5Writer
+    // writes every value: a dataset without filters stores at least its shape's bytes (whole
+    // chunks), a compressed one at least some bytes once it has values.
+    void check_storage(const Opened& opened) const
+    {
+        const Hid plist(H5Dget_create_plist(opened.dataset.get()), H5Pclose);
+        if (!plist.valid())
+            throw_error("{}: cannot read {}: {}", path, opened.what, h5::reason());
+        long double needed = H5Tget_size(opened.type.get());
+        for (const hsize_t d : opened.dims)
+            needed *= static_cast<long double>(d);
+        const long double stored = H5Dget_storage_size(opened.dataset.get());
+        const bool filtered = H5Pget_nfilters(plist.get()) > 0;
+        if (filtered ? (needed > 0 && stored == 0) : needed > stored)
+            throw_error("{}: {} has shape {} ({:.0f} bytes) but stores {:.0f} bytes: the file "
+                        "is damaged",
+                path, opened.what, h5::describe_dims(opened.dims), double(needed), double(stored));
     }
 
     // Reads a rank-1 (into a vector) or rank-2 (into a row-major matrix) dataset of the

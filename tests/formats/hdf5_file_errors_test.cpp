@@ -63,6 +63,20 @@ namespace {
             [&] { reader.read_sparse("other"); }, { "'/other' is not a CSR sparse matrix" });
     }
 
+    TEST_F(Hdf5FileErrors, DatasetStoringLessThanItsShapeIsAnError)
+    {
+        // Found by fuzzing: a trajectory whose '/time' layout was damaged into chunks that were
+        // never stored; HDF5 1.10 read past its own buffer (seen under AddressSanitizer).
+        const std::string path = std::string(MAT_TEST_DATA_DIR)
+            + "/../fuzz/regressions/fuzz_trajectory_raw/"
+              "crash-hdf5-overread-unstored-chunks-1cdecffe";
+        const H5Reader reader(path);
+        expect_error_containing([&] { reader.read_vector("time"); },
+            { path,
+                "dataset '/time' has shape 4 (32 bytes) but stores 0 bytes: the file is "
+                "damaged" });
+    }
+
     TEST_F(Hdf5FileErrors, WrongShapeRankOrTypeIsAnErrorNamingFileAndDataset)
     {
         MatX4i four(7, 4);
