@@ -240,6 +240,10 @@ namespace {
             throw_error("{}: cannot read surface: unknown failure in the importer", path);
         }
         if (!scene) {
+            // Our own line for the failures assimp reports without a place (surface_text_check).
+            const std::string explained = detail::explain_import_failure(path);
+            if (!explained.empty())
+                throw Error(explained);
             const std::string reason = importer.GetErrorString();
             throw_error(
                 "{}: cannot read surface: {}", path, reason.empty() ? "unknown error" : reason);

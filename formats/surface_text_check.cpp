@@ -1,9 +1,13 @@
 #include "formats/surface_text_check.hpp"
 
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <string_view>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "common/error.hpp"
 #include "formats/surface_io_internal.hpp"
@@ -198,6 +202,123 @@ namespace {
     };
 
 } // namespace
+
+namespace {
+
+    /// Walks an ASCII STL's records; fails at the first one out of place.
+    class StlChecker : public text_io::LineParser {
+    public:
+        using LineParser::LineParser;
+
+        void check()
+        {
+            // solid [name] { facet [normal x y z] / outer loop / 3 x vertex x y z / endloop /
+            // endfacet } endsolid [name], possibly several solids.
+            std::int64_t facet = 0;
+            while (m_reader.next()) {
+                const std::string_view word = m_reader.tokens()[0];
+                if (word == "solid" || word == "endsolid")
+                    continue;
+                if (word != "facet")
+                    fail("expected 'facet' or 'endsolid', found {}", quote(word));
+                expect_word("outer", facet, "outer loop");
+                int vertices = 0;
+                while (next_in_facet(facet, vertices) && m_reader.tokens()[0] == "vertex") {
+                    if (m_reader.tokens().size() < 4)
+                        fail("facet {}: vertex {} has {} coordinates, expected 3", facet, vertices,
+                            m_reader.tokens().size() - 1);
+                    for (std::size_t k = 1; k < 4; ++k) {
+                        double x = 0.0;
+                        if (!text_io::parse_real(m_reader.tokens()[k], x))
+                            fail("facet {}: vertex {}: coordinate {} is not a number", facet,
+                                vertices, quote(m_reader.tokens()[k]));
+                    }
+                    ++vertices;
+                }
+                if (m_reader.tokens()[0] != "endloop")
+                    fail("facet {}: expected 'vertex' or 'endloop', found {}", facet,
+                        quote(m_reader.tokens()[0]));
+                if (vertices != 3)
+                    fail("facet {}: {} vertices, an STL facet has 3", facet, vertices);
+                expect_word("endfacet", facet, "endfacet");
+                ++facet;
+            }
+        }
+
+    private:
+        bool next_in_facet(std::int64_t facet, int vertices)
+        {
+            if (!m_reader.next())
+                fail_at_end(facet, vertices);
+            return true;
+        }
+        void expect_word(std::string_view word, std::int64_t facet, const char* record)
+        {
+            if (!m_reader.next())
+                fail_at_end(facet, -1);
+            if (m_reader.tokens()[0] != word)
+                fail("facet {}: expected '{}', found {}", facet, record,
+                    quote(m_reader.tokens()[0]));
+        }
+        [[noreturn]] void fail_at_end(std::int64_t facet, int vertices) const
+        {
+            // At the end, line_number() is one past the last line.
+            const int last = m_reader.line_number() - 1;
+            if (vertices >= 0)
+                throw_error("{}: the file ends after line {}, inside facet {} after {} of its 3 "
+                            "vertices: it is truncated",
+                    m_name, last, facet, vertices);
+            throw_error("{}: the file ends after line {}, inside facet {}: it is truncated", m_name,
+                last, facet);
+        }
+    };
+
+    /// Whether `path` holds an ASCII STL: "solid" first, and not the size of a binary one (an
+    /// 80-byte header, a 4-byte count, 50 bytes per triangle).
+    bool is_ascii_stl(const std::string& path, const std::string& text)
+    {
+        if (lower_extension(path) != ".stl" || text.compare(0, 5, "solid") != 0)
+            return false;
+        if (text.size() >= 84) {
+            std::uint32_t count = 0;
+            std::memcpy(&count, text.data() + 80, sizeof(count));
+            if (84 + 50 * static_cast<std::uint64_t>(count) == text.size())
+                return false;
+        }
+        return true;
+    }
+
+} // namespace
+
+std::string explain_import_failure(const std::string& path)
+{
+    std::string text;
+    try {
+        text = text_io::read_file(path);
+    } catch (const Error&) {
+        return "";
+    }
+    try {
+        if (is_ascii_stl(path, text))
+            StlChecker(text, path).check();
+        if (lower_extension(path) == ".gltf") {
+            try {
+                const nlohmann::json parsed = nlohmann::json::parse(text);
+                static_cast<void>(parsed);
+            } catch (const nlohmann::json::parse_error& e) {
+                // e.what(): "[json.exception.parse_error.101] parse error at line 1, column 5:
+                // syntax error while parsing ...": keep what follows "parse error ".
+                const std::string what = e.what();
+                const std::size_t at = what.find("parse error ");
+                return fmt::format("{}: the glTF is not valid JSON: {}", path,
+                    at == std::string::npos ? what : what.substr(at + 12));
+            }
+        }
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
 
 void check_obj_text(const std::string& path)
 {

@@ -21,4 +21,11 @@ void check_off_text(const std::string& path);
 /// vertices before the record. Throws mat::Error "<path>: line <n>: face <f>: <problem>".
 void check_obj_text(const std::string& path);
 
+/// Called after assimp failed to read `path`: a message naming the line (or byte) and the
+/// problem for the classes assimp reports without one, or "" to keep assimp's reason. Knows an
+/// ASCII STL that breaks the solid / facet / outer loop / 3 x vertex / endloop / endfacet
+/// structure (a truncated file among them: assimp says "Invalid number of vertices") and a .gltf
+/// that is not valid JSON (assimp says "No suitable reader found").
+std::string explain_import_failure(const std::string& path);
+
 } // namespace mat::detail

@@ -147,6 +147,39 @@ namespace {
         expect(vertices + "l 1 2\nl 2 x\n", 6, "polyline 1: vertex index 'x' is not an integer");
     }
 
+    // What assimp reports without a place ("Invalid number of vertices", "No suitable reader
+    // found") gets our own line: a truncated or malformed ASCII STL, a .gltf that is not JSON.
+    TEST_F(SurfaceIoErrors, BrokenAsciiStlAndGltfNameTheLineAndTheProblem)
+    {
+        const std::string facet = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                  "vertex 0 1 0\nendloop\nendfacet\n";
+        // A whole file reads (a single triangle: no error from the reader).
+        EXPECT_EQ(error_of(write_text("ok.stl", "solid t\n" + facet + "endsolid t\n")), "");
+        const std::string truncated = write_text("cut.stl",
+            "solid t\n" + facet + "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n");
+        EXPECT_EQ(error_of(truncated),
+            truncated
+                + ": the file ends after line 12, inside facet 1 after 2 of its 3 vertices: it is "
+                  "truncated");
+        const std::string two = path("two.stl");
+        write_text("two.stl",
+            "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n"
+            "endfacet\nendsolid t\n");
+        test::expect_line_error(
+            [&] { read_surface(two); }, two, 6, "facet 0: 2 vertices, an STL facet has 3");
+        const std::string nan = path("nan.stl");
+        write_text("nan.stl",
+            "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 x 0\n"
+            "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+        test::expect_line_error([&] { read_surface(nan); }, nan, 5,
+            "facet 0: vertex 1: coordinate 'x' is not a number");
+        const std::string gltf = write_text(
+            "broken.gltf", R"({"asset": {"version": "2.0"}, "meshes": [ {"primitives": [)");
+        const std::string message = error_of(gltf);
+        EXPECT_EQ(message.rfind(gltf + ": the glTF is not valid JSON: at line 1, column ", 0), 0u)
+            << message;
+    }
+
     /// Random bytes and truncations of valid files: a mesh with valid indices, or mat::Error.
     TEST_F(SurfaceIoErrors, GarbageNeverCrashes)
     {
