@@ -70,7 +70,6 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         data.stamp.assign(static_cast<std::size_t>(num_primitives), -1);
         data.region.assign(static_cast<std::size_t>(num_primitives), Box3());
         data.face_stamp.assign(static_cast<std::size_t>(body.faces->rows()), -1);
-        data.position.assign(static_cast<std::size_t>(body.faces->rows()), -1);
         const VecXi& indptr = *body.face_indptr;
         const VecXi& list = *body.face_list;
         data.face_primitive_indptr = VecXi::Zero(body.faces->rows() + 1);
@@ -95,7 +94,7 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
 }
 
 void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
-    const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead)
+    const std::vector<PrimitivePairRef>& pairs, double margin)
 {
     ++m_run;
     for (BodyData& data : m_bodies) {
@@ -119,7 +118,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     choose_sweep_axis();
     const int axis = m_axis;
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
-        file_faces(body, data, axis, lookahead);
+        file_faces(body, data, axis);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -204,28 +203,9 @@ void NarrowPhase::choose_sweep_axis()
         all.sizes().maxCoeff(&m_axis);
 }
 
-void NarrowPhase::file_faces(
-    const NarrowPhaseBody& body, BodyData& data, int axis, double lookahead)
+void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int axis)
 {
     data.grid.build(axis);
-    face_motion(body, data);
-    // The swept grid: each face's box grown by a little more than what a point of it can move,
-    // in the step, relative to the body's mean velocity (see nearest_triangle).
-    data.swept.items.clear();
-    for (std::size_t k = 0; k < data.grid.items.size(); ++k) {
-        const Item& item = data.grid.at(k);
-        const BodyData::FaceMotion& motion = data.motion[k];
-        data.position[static_cast<std::size_t>(item.index)] = static_cast<int>(k);
-        const double sweep = (1.0 + 2e-9) * lookahead
-            * ((motion.mean - data.mean_velocity).norm() + motion.spread);
-        data.swept.items.push_back(
-            { Box3(item.box.min().array() - sweep, item.box.max().array() + sweep), item.index });
-    }
-    data.swept.build(axis);
-}
-
-void NarrowPhase::face_motion(const NarrowPhaseBody& body, BodyData& data)
-{
     // Per position in the grid, the corners' motion (see face_out_of_reach), then the body's
     // mean velocity and spread over its active faces.
     const std::size_t n = data.grid.items.size();
@@ -542,21 +522,15 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         r.own_speed = query.velocity.norm();
         r.slack
             = 1e-9 * lookahead * (r.own_speed + faces.mean_velocity.norm() + faces.velocity_spread);
-        // The faces whose boxes, swept by what their points can move relative to the body's
-        // mean velocity, come within the node's hold plus its own motion relative to that mean
-        // (and within the reach): the others fail the relative bound of face_out_of_reach.
-        const double grow
-            = (1.0 + 2e-9) * (r.hold + lookahead * (query.velocity - faces.mean_velocity).norm())
+        const double relative = (1.0 + 1e-9)
+                * (r.hold
+                    + lookahead
+                        * ((query.velocity - faces.mean_velocity).norm() + faces.velocity_spread))
             + r.slack;
-        const Box3 region(
-            item.box.min().array() - query.reach, item.box.max().array() + query.reach);
-        faces.swept.overlapping(item.box, grow, [&](int f, int) {
-            const std::size_t k
-                = static_cast<std::size_t>(faces.position[static_cast<std::size_t>(f)]);
-            const Box3& box = faces.grid.at(k).box;
-            const BodyData::FaceMotion& motion = faces.motion[k];
-            if (!boxes_overlap(region, box)
-                || face_out_of_reach(query, r, box, motion.mean, motion.speed, motion.spread))
+        faces.grid.overlapping(item.box, std::min(query.reach, relative), [&](int f, int k) {
+            const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
+            if (face_out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box,
+                    motion.mean, motion.speed, motion.spread))
                 return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;
@@ -607,7 +581,7 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
     const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
 {
     prepare(bodies);
-    activate(bodies, pairs, margin, lookahead);
+    activate(bodies, pairs, margin);
     clear_scratch();
     build_work_lists();
     // Triangle pairs: each active triangle against the later bodies' active triangles (and its

@@ -131,11 +131,6 @@ private:
         };
         /// Per position in `grid`.
         std::vector<FaceMotion> motion;
-        /// #F, an active face's position in `grid`.
-        std::vector<int> position;
-        /// The active faces by their boxes swept by how far a point of theirs can move in the
-        /// step relative to `mean_velocity` (the nodes' search: see nearest_triangle).
-        FaceGrid swept;
         /// The mean of the active faces' mean velocities, and the most a velocity of a point of
         /// an active face differs from it (via its face's mean: |mean_k - this| + spread_k).
         Vec3 mean_velocity = Vec3::Zero();
@@ -151,7 +146,7 @@ private:
 
     void prepare(const std::vector<NarrowPhaseBody>& bodies);
     void activate(const std::vector<NarrowPhaseBody>& bodies,
-        const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead);
+        const std::vector<PrimitivePairRef>& pairs, double margin);
     /// work(body, data) for every body, in parallel.
     template <class Work>
     void for_each_body(const std::vector<NarrowPhaseBody>& bodies, const Work& work);
@@ -164,11 +159,8 @@ private:
     void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
     /// m_axis: the longest side of the box of every body's active triangles.
     void choose_sweep_axis();
-    /// Files a body's active triangles in its grids along `axis`: by their boxes, and by their
-    /// boxes swept by `lookahead` times their points' speed relative to the body's mean velocity.
-    static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis, double lookahead);
-    /// The active triangles' corner motion, and the body's mean velocity and spread over them.
-    static void face_motion(const NarrowPhaseBody& body, BodyData& data);
+    /// Files a body's active triangles in its grid along `axis`, with their corners' motion.
+    static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
