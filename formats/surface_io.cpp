@@ -222,6 +222,7 @@ namespace {
             detail::check_obj_text(path);
         else
             detail::check_off_text(path);
+        detail::check_glb_header(path);
         forward_assimp_log();
         Assimp::Importer importer;
         // Normals, tangents, colors and texture coordinates would keep apart the copies of a

@@ -29,4 +29,9 @@ inline std::string lower_extension(const std::string& path)
     return ext;
 }
 
+/// Checks the chunk lengths of a binary glTF (GLB, versions 1 and 2) against the file's size:
+/// assimp 5.2 allocates what a chunk header claims (4 GB for a 240-byte file). Files without
+/// the "glTF" magic are left alone. Throws mat::Error "<path>: GLB chunk <i> ...".
+void check_glb_header(const std::string& path);
+
 } // namespace mat::detail

@@ -181,6 +181,31 @@ namespace {
     }
 
     /// Random bytes and truncations of valid files: a mesh with valid indices, or mat::Error.
+    TEST_F(SurfaceIoErrors, GlbChunkLongerThanTheFileIsRefusedBeforeAssimp)
+    {
+        // Found by fuzzing: assimp allocated the 4 GB a GLB's JSON chunk header claimed.
+        const std::string json = R"({"asset": {"version": "2.0"}})";
+        const auto glb = [&](std::uint32_t chunk_length) {
+            std::string bytes = "glTF";
+            const auto u32 = [&](std::uint32_t v) {
+                for (int k = 0; k < 4; ++k)
+                    bytes += char((v >> (8 * k)) & 0xff);
+            };
+            u32(2);
+            u32(std::uint32_t(20 + json.size()));
+            u32(chunk_length);
+            bytes += "JSON" + json;
+            return bytes;
+        };
+        const std::string lying = write_text("lying.glb", glb(0xF0000000u));
+        EXPECT_EQ(error_of(lying),
+            lying + ": GLB chunk 0 claims 4026531840 bytes but " + std::to_string(json.size())
+                + " follow its header");
+        // A chunk that fits passes the check (assimp then finds no mesh in it).
+        const std::string fits = write_text("fits.glb", glb(std::uint32_t(json.size())));
+        EXPECT_EQ(error_of(fits).find("GLB chunk"), std::string::npos);
+    }
+
     TEST_F(SurfaceIoErrors, GarbageNeverCrashes)
     {
         const auto level = logger().level();
