@@ -1,5 +1,8 @@
 #include "runtime/output/checkpoint.hpp"
 
+#include <cstdint>
+#include <limits>
+
 #include <cstring>
 
 #include <fmt/format.h>
@@ -47,11 +50,15 @@ namespace {
         out.write_matrix(group + "/contact_forces", body.contact.forces);
     }
 
-    BodySnapshot read_body(const H5Reader& in, const std::string& group)
+    BodySnapshot read_body(const H5Reader& in, const std::string& path, const std::string& group)
     {
         BodySnapshot body;
         body.asleep = in.read_int_attribute(group, "asleep") != 0;
-        body.slow_steps = static_cast<int>(in.read_int_attribute(group, "slow_steps"));
+        const std::int64_t slow_steps = in.read_int_attribute(group, "slow_steps");
+        if (slow_steps < 0 || slow_steps > std::numeric_limits<int>::max())
+            throw_error("{}: {}: slow_steps {} out of range [0, {}]", path, group, slow_steps,
+                std::numeric_limits<int>::max());
+        body.slow_steps = static_cast<int>(slow_steps);
         body.moved = in.read_int_attribute(group, "moved") != 0;
         body.positions = in.read<MatX3>(group + "/positions");
         body.velocities = in.read<MatX3>(group + "/velocities", body.positions.rows());
@@ -129,16 +136,17 @@ Checkpoint read_checkpoint(const std::string& path, const RunIdentity& identity)
     if (bakes != identity.bake_hashes)
         refuse("bake", "bake hashes " + bakes, identity.bake_hashes);
     Checkpoint checkpoint;
-    checkpoint.frame = static_cast<int>(in.read_int_attribute("/", "frame"));
+    const std::int64_t frame = in.read_int_attribute("/", "frame");
     checkpoint.snapshot.steps = static_cast<long>(in.read_int_attribute("/", "steps"));
-    if (checkpoint.frame < 0 || checkpoint.snapshot.steps < 0)
-        throw_error("{}: frame {} and steps {} must not be negative", path, checkpoint.frame,
-            checkpoint.snapshot.steps);
+    if (frame < 0 || frame > std::numeric_limits<int>::max() || checkpoint.snapshot.steps < 0)
+        throw_error("{}: frame {} and steps {} must lie in [0, {}] and be non-negative", path,
+            frame, checkpoint.snapshot.steps, std::numeric_limits<int>::max());
+    checkpoint.frame = static_cast<int>(frame);
     const std::vector<std::string> bodies = in.list("bodies");
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         if (!in.has(body_group(b)))
             throw_error("{}: no group '{}' ({} bodies)", path, body_group(b), bodies.size());
-        checkpoint.snapshot.bodies.push_back(read_body(in, body_group(b)));
+        checkpoint.snapshot.bodies.push_back(read_body(in, path, body_group(b)));
     }
     return checkpoint;
 }
