@@ -41,14 +41,36 @@ std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_
     return nodes;
 }
 
+DenseContactCoupling::DenseContactCoupling(const Eigen::Ref<const MatX>& coupling)
+    : m_coupling(coupling)
+    , m_diagonal(coupling.diagonal())
+{
+    MAT_CHECK(coupling.rows() == coupling.cols(), "contact solve: the coupling is {} x {}",
+        coupling.rows(), coupling.cols());
+}
+
+void DenseContactCoupling::displace(const Eigen::Ref<const MatX3>& free,
+    const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
+    Eigen::Ref<MatX3> positions)
+{
+    const Index m = m_coupling.rows();
+    for (Index c = 0; c < m; ++c)
+        if (keep == nullptr || !(*keep)[static_cast<std::size_t>(c)])
+            positions.row(c) = free.row(c);
+    for (Index d = 0; d < m; ++d)
+        if (forces.row(d).squaredNorm() > 0.0)
+            for (Index c = 0; c < m; ++c)
+                if (keep == nullptr || !(*keep)[static_cast<std::size_t>(c)])
+                    positions.row(c) += m_coupling(c, d) * forces.row(d);
+}
+
 namespace {
 
     /// One contact solve's data, with the steps of its projected Gauss-Seidel (docs/method.md,
     /// section 5).
     struct PlaneContactSolve {
-        const Eigen::Ref<const MatX>& coupling;
-        std::vector<char>& column_ready;
-        const std::function<void(Index)>& fill_column;
+        ContactCoupling& coupling;
+        const VecX& diagonal;
         const std::vector<PlaneCollider>& planes;
         const std::vector<ContactPair>& pairs;
         const Eigen::Ref<const MatX3>& free_positions;
@@ -56,20 +78,11 @@ namespace {
         Eigen::Ref<MatX3>& forces;
         Eigen::Ref<MatX3>& positions;
 
-        /// Fills column c of the coupling the first time it is needed.
-        void ensure_column(Index c)
-        {
-            if (!column_ready[c]) {
-                fill_column(c);
-                column_ready[c] = 1;
-            }
-        }
-
         /// Contact c's gap, at x + eps f with compliance.
         double gap_of(Index c) const
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
-            const double eps = plane.compliance * coupling(c, c);
+            const double eps = plane.compliance * diagonal(c);
             return plane.normal.dot(
                 positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
         }
@@ -80,25 +93,13 @@ namespace {
             return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0);
         }
 
-        /// x = x_free + D f for the warm-start forces.
-        void apply_warm_start()
-        {
-            const Index m = static_cast<Index>(pairs.size());
-            positions = free_positions;
-            for (Index d = 0; d < m; ++d)
-                if (forces.row(d).squaredNorm() > 0.0) {
-                    ensure_column(d);
-                    for (Index c = 0; c < m; ++c)
-                        positions.row(c) += coupling(c, d) * forces.row(d);
-                }
-        }
-
         /// Contact c's new force (Signorini normal, Coulomb tangent), and the working set's
-        /// positions moved by the change; returns how far c moves (0 if its force is unchanged).
-        double project(Index c, const std::vector<Index>& working)
+        /// positions moved by the change (`rows`: their rows in the coupling's columns);
+        /// returns how far c moves (0 if its force is unchanged).
+        double project(Index c, const std::vector<Index>& working, const std::vector<int>& rows)
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
-            const double coupling_cc = coupling(c, c);
+            const double coupling_cc = diagonal(c);
             if (!(coupling_cc > 0.0))
                 return 0.0; // a node the global step cannot move (cannot happen for SPD)
             // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
@@ -128,33 +129,19 @@ namespace {
             if (delta.squaredNorm() == 0.0)
                 return 0.0;
             forces.row(c) = (f_n_new * n + f_t_new).transpose();
-            ensure_column(c);
-            for (const Index d : working)
-                positions.row(d) += coupling(d, c) * delta.transpose();
+            const double* column = coupling.column(c);
+            for (std::size_t j = 0; j < working.size(); ++j)
+                positions.row(working[j]) += column[rows[j]] * delta.transpose();
             return coupling_cc * delta.norm();
         }
 
         /// One sweep over the working set, in order: the largest position change.
-        double sweep(const std::vector<Index>& working)
+        double sweep(const std::vector<Index>& working, const std::vector<int>& rows)
         {
             double change = 0.0;
             for (const Index c : working)
-                change = std::max(change, project(c, working));
+                change = std::max(change, project(c, working, rows));
             return change;
-        }
-
-        /// Brings the positions of the contacts outside the working set up to date.
-        void update_outside(const std::vector<Index>& working, const std::vector<char>& member)
-        {
-            const Index m = static_cast<Index>(pairs.size());
-            for (Index d = 0; d < m; ++d)
-                if (!member[static_cast<std::size_t>(d)])
-                    positions.row(d) = free_positions.row(d);
-            for (const Index c : working)
-                if (forces.row(c).squaredNorm() > 0.0)
-                    for (Index d = 0; d < m; ++d)
-                        if (!member[static_cast<std::size_t>(d)])
-                            positions.row(d) += coupling(d, c) * forces.row(c);
         }
 
         /// Adds the contacts that have come into their plane to `member`, the deepest of their
@@ -175,37 +162,35 @@ namespace {
 
 } // namespace
 
-ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
-    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
+ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings)
 {
     ContactScratch scratch;
-    return solve_plane_contacts(coupling, column_ready, fill_column, planes, pairs, free_positions,
-        start_positions, forces, positions, settings, scratch);
+    return solve_plane_contacts(coupling, planes, pairs, free_positions, start_positions, forces,
+        positions, settings, scratch);
 }
 
-ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
-    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
+ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings,
     ContactScratch& scratch)
 {
     const Index m = static_cast<Index>(pairs.size());
-    MAT_CHECK(coupling.rows() == m && coupling.cols() == m && free_positions.rows() == m
-            && start_positions.rows() == m && forces.rows() == m && positions.rows() == m
-            && static_cast<Index>(column_ready.size()) == m,
+    const VecX& diagonal = coupling.diagonal();
+    MAT_CHECK(diagonal.size() == m && free_positions.rows() == m && start_positions.rows() == m
+            && forces.rows() == m && positions.rows() == m,
         "contact solve: inconsistent sizes for {} contacts", m);
     ContactSolveResult result;
     if (m == 0)
         return result;
 
     // x = x_free + D f for the warm-start forces.
-    PlaneContactSolve solve { coupling, column_ready, fill_column, planes, pairs, free_positions,
-        start_positions, forces, positions };
-    solve.apply_warm_start();
+    PlaneContactSolve solve { coupling, diagonal, planes, pairs, free_positions, start_positions,
+        forces, positions };
+    coupling.displace(free_positions, forces, nullptr, positions);
 
     // Projected Gauss-Seidel over a working set: the contacts that push or are not clear of
     // their plane. The others would change nothing in a sweep (no force, and a positive gap
@@ -214,6 +199,7 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     // has come into its plane joins, and the sweeps go on (sweeping all contacts would act on
     // it in the sweep it came into its plane; both converge to the same conditions).
     std::vector<Index>& working = scratch.working;
+    std::vector<int>& rows = scratch.rows;
     std::vector<char>& member = scratch.member;
     member.resize(static_cast<std::size_t>(m));
     for (Index c = 0; c < m; ++c)
@@ -222,11 +208,14 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
     int sweep = 0;
     while (true) {
         working.clear();
+        rows.clear();
         for (Index c = 0; c < m; ++c)
-            if (member[static_cast<std::size_t>(c)])
+            if (member[static_cast<std::size_t>(c)]) {
                 working.push_back(c);
+                rows.push_back(coupling.cover(c));
+            }
         for (; sweep < settings.max_sweeps; ++sweep) {
-            const double change = solve.sweep(working);
+            const double change = solve.sweep(working, rows);
             result.sweeps = sweep + 1;
             result.last_change = change;
             if (change <= settings.tolerance) {
@@ -234,8 +223,9 @@ ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
                 break;
             }
         }
-        // Every position from the forces, then the contacts that have come into their plane.
-        solve.update_outside(working, member);
+        // Every other position from the forces, then the contacts that have come into their
+        // plane.
+        coupling.displace(free_positions, forces, &member, positions);
         double depth = 0.0; // the deepest of the contacts that join
         if (!solve.join(member, depth))
             break;

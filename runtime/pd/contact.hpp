@@ -26,7 +26,6 @@
 // conditions.) On the demo's creature (580 candidates, about 20 pushing) this took the contact
 // solve from 31 to 5 ms per step.
 
-#include <functional>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -73,7 +72,48 @@ struct ContactSolveResult {
 /// The solve's working storage, kept by the caller from one solve to the next.
 struct ContactScratch {
     std::vector<Index> working; ///< the working set, increasing
+    std::vector<int> rows; ///< the working set's rows in the coupling's columns
     std::vector<char> member; ///< per contact, whether it is in the working set
+};
+
+/// The coupling D between the contacts' points (m contacts) as the solve uses it; D is symmetric
+/// positive semi-definite. A Gauss-Seidel sweep needs D only between the contacts of the working
+/// set, and of those only the columns of the contacts whose force changes; D is kept as its
+/// diagonal and the columns of the contacts that have pushed, over the rows of the contacts that
+/// have been in a working set ("covered"), both grown on demand. The positions of the others
+/// come from displace(), which need not form D (the contact stage takes them through each
+/// body's summed response).
+class ContactCoupling {
+public:
+    virtual ~ContactCoupling() = default;
+    /// D_cc  m.
+    virtual const VecX& diagonal() const = 0;
+    /// Contact c's row in the columns, covering it first if it is not.
+    virtual int cover(Index c) = 0;
+    /// Column c of D over the covered rows (entry cover(d) is D_dc); valid until the next
+    /// cover() of a contact not covered yet.
+    virtual const double* column(Index c) = 0;
+    /// positions.row(c) = free.row(c) + sum_d D_cd forces.row(d), for every contact c with
+    /// keep[c] == 0 (`keep` null: every contact).   free, forces, positions  m x 3
+    virtual void displace(const Eigen::Ref<const MatX3>& free,
+        const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
+        Eigen::Ref<MatX3> positions)
+        = 0;
+};
+
+/// A coupling given whole, m x m (small problems and tests).
+class DenseContactCoupling final : public ContactCoupling {
+public:
+    explicit DenseContactCoupling(const Eigen::Ref<const MatX>& coupling);
+    const VecX& diagonal() const override { return m_diagonal; }
+    int cover(Index c) override { return static_cast<int>(c); }
+    const double* column(Index c) override { return m_coupling.col(c).data(); }
+    void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
+        const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;
+
+private:
+    MatX m_coupling;
+    VecX m_diagonal;
 };
 
 /// Nodes on the boundary of a tet mesh (on a face that belongs to one tet), increasing.
@@ -81,23 +121,18 @@ struct ContactScratch {
 std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_nodes);
 
 /// Solves the contact conditions above for `pairs` (m contacts).
-///   coupling         m x m, symmetric positive semi-definite: D between the pairs' nodes.
-///                    Only its diagonal must be filled on entry: column c is filled by
-///                    `fill_column(c)` the first time contact c needs it (a contact that never
-///                    pushes never needs its column); `column_ready` (m) records which are.
+///   coupling         D between the pairs' points (see ContactCoupling)
 ///   free_positions   m x 3: the pairs' node positions after the global step without contact
 ///   start_positions  m x 3: the pairs' node positions at the start of the time step
 ///   forces           m x 3: in: a warm start (zeros at first), out: the contact forces
 ///   positions        m x 3: out: the pairs' node positions with the contact forces
 /// Allocates nothing once `scratch` is warm (the overload without it allocates its own).
-ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
-    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
+ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings,
     ContactScratch& scratch);
-ContactSolveResult solve_plane_contacts(const Eigen::Ref<const MatX>& coupling,
-    std::vector<char>& column_ready, const std::function<void(Index)>& fill_column,
+ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,
     const Eigen::Ref<const MatX3>& free_positions, const Eigen::Ref<const MatX3>& start_positions,
     Eigen::Ref<MatX3> forces, Eigen::Ref<MatX3> positions, const ContactSettings& settings = {});

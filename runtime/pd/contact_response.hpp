@@ -26,10 +26,9 @@ public:
     virtual Eigen::Ref<const VecX> node_response(int node) const = 0;
     /// How far node i moves along a response: the row of node i applied to `response`.
     virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
-    /// Adds `response` f^T to the kept solution (the displacement of a force f).
-    virtual void add_response(
-        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
-        = 0;
+    /// Adds `displacement` (response_size() x 3, a sum of responses z f^T: the displacement
+    /// of forces f) to the kept solution.
+    virtual void add_displacement(const Eigen::Ref<const MatX3>& displacement) = 0;
     /// A point carried by nodes, x = sum_t weights_t x_{nodes_t}, as a sparse row over the
     /// response space: x = offset + sum_i value_i u_i (u the kept solution's rows: q reduced, x
     /// full), and D applied to a response z is sum_i value_i z_i. Appends (index, value) pairs

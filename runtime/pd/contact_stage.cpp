@@ -13,7 +13,6 @@ ContactStage::ContactStage(Index num_bodies)
     : m_data(static_cast<std::size_t>(num_bodies))
     , m_solvers(static_cast<std::size_t>(num_bodies), nullptr)
 {
-    m_fill = [this](Index d) { fill_column(d); };
 }
 
 void ContactStage::init_body(int b, PdSolver& solver)
@@ -192,8 +191,8 @@ void ContactStage::begin_step(
     }
 
     const Index m = static_cast<Index>(m_records.size());
-    if (m_coupling.rows() != m || m_free.rows() != m) {
-        m_coupling.resize(m, m);
+    if (m_free.rows() != m) {
+        m_diagonal.resize(m);
         m_free.resize(m, 3);
         m_start.resize(m, 3);
         m_forces.resize(m, 3);
@@ -202,8 +201,12 @@ void ContactStage::begin_step(
     for (Index a = 0; a < m; ++a)
         m_start.row(a) = m_records[static_cast<std::size_t>(a)].start.transpose();
     prepare_responses(bodies);
-    // Only the diagonal now: a column is computed when its contact first pushes.
-    m_column_ready.assign(static_cast<std::size_t>(m), 0);
+    // Only the diagonal now: the rest of W between two contacts when both have been in a
+    // working set (prepare()).
+    m_row_of.assign(static_cast<std::size_t>(m), -1);
+    m_column_of.assign(static_cast<std::size_t>(m), -1);
+    m_rows.clear();
+    m_cols.clear();
     for (Index a = 0; a < m; ++a) {
         const Record& record = m_records[static_cast<std::size_t>(a)];
         double sum = 0.0;
@@ -213,7 +216,7 @@ void ContactStage::begin_step(
             const auto z = response(side, scale);
             sum += scale * side_apply(side, z);
         }
-        m_coupling(a, a) = sum;
+        m_diagonal(a) = sum;
     }
     // Warm start: the last step's forces; then forget them, so that a contact that drops out
     // and comes back later does not start from a stale force (end_step writes the current ones).
@@ -331,28 +334,6 @@ Vec3 ContactStage::side_position(const Side& side) const
         side.offset);
 }
 
-// W_cd = sum over the bodies of both: J_c D J_d^T.
-void ContactStage::fill_column(Index d)
-{
-    const Record& record_d = m_records[static_cast<std::size_t>(d)];
-    const Index m = static_cast<Index>(m_records.size());
-    for (Index c = 0; c < m; ++c)
-        m_coupling(c, d) = 0.0;
-    for (int sd = 0; sd < record_d.num_sides; ++sd) {
-        const Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
-        double scale = 1.0;
-        const auto z = response(side_d, scale);
-        for (Index c = 0; c < m; ++c) {
-            const Record& record_c = m_records[static_cast<std::size_t>(c)];
-            for (int sc = 0; sc < record_c.num_sides; ++sc) {
-                const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
-                if (side_c.body == side_d.body)
-                    m_coupling(c, d) += scale * side_apply(side_c, z);
-            }
-        }
-    }
-}
-
 void ContactStage::solve(bool last)
 {
     const Index m = static_cast<Index>(m_records.size());
@@ -371,21 +352,13 @@ void ContactStage::solve(bool last)
     ContactSettings settings = m_settings;
     if (!last && m_body_contacts > 0)
         settings.max_sweeps = std::min(settings.max_sweeps, settings.early_sweeps);
-    const ContactSolveResult result = solve_plane_contacts(m_coupling, m_column_ready, m_fill,
-        m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
+    const ContactSolveResult result = solve_plane_contacts(
+        *this, m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;
-    for (Index a = 0; a < m; ++a) {
-        if (!(m_forces.row(a).squaredNorm() > 0.0))
-            continue;
-        const Record& record = m_records[static_cast<std::size_t>(a)];
-        for (int s = 0; s < record.num_sides; ++s) {
-            const Side& side = record.sides[static_cast<std::size_t>(s)];
-            double scale = 1.0;
-            const auto z = response(side, scale);
-            m_solvers[static_cast<std::size_t>(side.body)]->contact_response().add_response(
-                z, scale * m_forces.row(a));
-        }
-    }
+    sum_responses(m_forces);
+    for (std::size_t b = 0; b < m_data.size(); ++b)
+        if (m_solvers[b] != nullptr)
+            m_solvers[b]->contact_response().add_displacement(m_data[b].displacement);
     // The solve's time goes to the stepped bodies in equal shares.
     int stepped = 0;
     for (const PdSolver* solver : m_solvers)

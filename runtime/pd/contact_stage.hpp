@@ -18,12 +18,13 @@
 //   W_cd = sum over bodies b of J_cb D_b J_db^T,
 // D_b body b's compliance (its global step's ContactResponse) and J_cb the weights of
 // contact c's terms on b. W is isotropic (D acts alike on x, y and z). The projected Gauss-Seidel
-// solve of runtime/pd/contact.hpp then runs on the relative points unchanged; a column of W is
-// computed when its contact first pushes. A contact with several terms on a body keeps the
+// solve of runtime/pd/contact.hpp then runs on the relative points unchanged, with the stage as
+// its ContactCoupling: W between the contacts that have been in a working set and those that have
+// pushed, and the other positions through each body's summed response (docs/method.md, "W is
+// never formed whole"). A contact with several terms on a body keeps the
 // body's response to it, sum_t w_t z_t (a vector of the body's response size).
 
 #include <array>
-#include <functional>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -100,7 +101,7 @@ struct ContactBodyState {
     const MatX3* now = nullptr;
 };
 
-class ContactStage {
+class ContactStage final : private ContactCoupling {
 public:
     /// `num_bodies` bodies, numbered as in the terms.
     explicit ContactStage(Index num_bodies);
@@ -161,6 +162,7 @@ private:
         MatX responses; ///< pool of multi-term responses, one column each
         int pool_used = 0;
         std::vector<int> slots; ///< ContactResponse::direction's scratch
+        MatX3 displacement; ///< response size x 3: its sides' responses times their forces
     };
 
     void init_body(int b, PdSolver& solver);
@@ -174,7 +176,16 @@ private:
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const Eigen::Ref<const VecX>& response) const;
     Vec3 side_position(const Side& side) const;
-    void fill_column(Index d);
+    /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
+    double coupling_between(Index c, Index d) const;
+    // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).
+    const VecX& diagonal() const override { return m_diagonal; }
+    int cover(Index c) override;
+    const double* column(Index c) override;
+    void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
+        const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;
+    /// Each stepped body's displacement by `forces`: sum over its sides of z f^T.
+    void sum_responses(const Eigen::Ref<const MatX3>& forces);
 
     std::vector<BodyData> m_data;
     std::vector<PdSolver*> m_solvers; ///< this step's, per body (null: constant)
@@ -185,9 +196,12 @@ private:
     std::vector<double> m_dir_value;
     std::vector<PlaneCollider> m_planes;
     std::vector<ContactPair> m_pairs; ///< (contact, its plane) for the Gauss-Seidel solve
-    MatX m_coupling; ///< W  m x m, columns on demand
-    std::vector<char> m_column_ready;
-    std::function<void(Index)> m_fill;
+    VecX m_diagonal; ///< W_cc  m
+    /// W's columns of the contacts that have pushed this step, over the rows of the contacts
+    /// that have been in a working set (ContactCoupling), with room to grow.
+    MatX m_columns;
+    std::vector<int> m_row_of, m_column_of; ///< per contact, its row / column (-1: none yet)
+    std::vector<Index> m_rows, m_cols; ///< the contacts by row / column
     MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3
     ContactScratch m_scratch;
     ContactSettings m_settings;

@@ -215,10 +215,9 @@ Vec3 ReducedGlobalStep::position(
     return x.transpose();
 }
 
-void ReducedGlobalStep::add_response(
-    const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
+void ReducedGlobalStep::add_displacement(const Eigen::Ref<const MatX3>& displacement)
 {
-    m_q.noalias() += response * force;
+    m_q += displacement;
 }
 
 void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)
@@ -278,10 +277,9 @@ Vec3 FullGlobalStep::position(
     return x;
 }
 
-void FullGlobalStep::add_response(
-    const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force)
+void FullGlobalStep::add_displacement(const Eigen::Ref<const MatX3>& displacement)
 {
-    m_x.noalias() += response * force;
+    m_x += displacement;
 }
 
 void FullGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)

@@ -96,8 +96,7 @@ public:
     void prepare_nodes(const std::vector<int>& nodes) override;
     Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
     double apply(int node, const Eigen::Ref<const VecX>& response) const override;
-    void add_response(
-        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
+    void add_displacement(const Eigen::Ref<const MatX3>& displacement) override;
     const MatX* reduced_coordinates() const override { return &m_q; }
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
@@ -143,8 +142,7 @@ public:
     {
         return response(node);
     }
-    void add_response(
-        const Eigen::Ref<const VecX>& response, const Eigen::RowVector3d& force) override;
+    void add_displacement(const Eigen::Ref<const MatX3>& displacement) override;
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 position(
