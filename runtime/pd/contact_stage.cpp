@@ -291,6 +291,7 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
                 side.count, m_dir_index, m_dir_value, side.offset, body.slots);
             side.dir_count = static_cast<int>(m_dir_index.size()) - side.dir_first;
         }
+    find_read_rows();
     for (const Record& record : m_records)
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
@@ -355,7 +356,7 @@ void ContactStage::solve(bool last)
     const ContactSolveResult result = solve_plane_contacts(
         *this, m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;
-    sum_responses(m_forces);
+    sum_responses(m_forces, true);
     for (std::size_t b = 0; b < m_data.size(); ++b)
         if (m_solvers[b] != nullptr)
             m_solvers[b]->contact_response().add_displacement(m_data[b].displacement);

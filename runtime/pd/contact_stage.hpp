@@ -163,6 +163,9 @@ private:
         int pool_used = 0;
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
+        /// The rows of the response space its sides' directions read, increasing (empty: all;
+        /// a full-space body's directions read only the contacts' nodes).
+        std::vector<int> read_rows;
     };
 
     void init_body(int b, PdSolver& solver);
@@ -171,6 +174,8 @@ private:
         const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
     void add_side(Record& record, int body, int first, int count);
     void prepare_responses(const std::vector<ContactBodyState>& bodies);
+    /// Each stepped body's BodyData::read_rows.
+    void find_read_rows();
     /// The side's response (pool column or node response) and the scale of its single term.
     Eigen::Ref<const VecX> response(const Side& side, double& scale) const;
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
@@ -184,8 +189,9 @@ private:
     const double* column(Index c) override;
     void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
         const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;
-    /// Each stepped body's displacement by `forces`: sum over its sides of z f^T.
-    void sum_responses(const Eigen::Ref<const MatX3>& forces);
+    /// Each stepped body's displacement by `forces`: sum over its sides of z f^T (`all_rows`
+    /// false: only the rows its directions read).
+    void sum_responses(const Eigen::Ref<const MatX3>& forces, bool all_rows);
 
     std::vector<BodyData> m_data;
     std::vector<PdSolver*> m_solvers; ///< this step's, per body (null: constant)

@@ -90,16 +90,44 @@ const double* ContactStage::column(Index d)
     return m_columns.col(col).data();
 }
 
-void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces)
+void ContactStage::find_read_rows()
 {
     for (std::size_t b = 0; b < m_data.size(); ++b)
-        if (m_solvers[b] != nullptr) {
-            MatX3& displacement = m_data[b].displacement;
-            const Index size = m_solvers[b]->contact_response().response_size();
-            if (displacement.rows() != size)
-                displacement.resize(size, 3);
-            displacement.setZero();
+        m_data[b].read_rows.clear();
+    for (const Record& record : m_records)
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            std::vector<int>& rows = m_data[static_cast<std::size_t>(side.body)].read_rows;
+            rows.insert(rows.end(), m_dir_index.begin() + side.dir_first,
+                m_dir_index.begin() + side.dir_first + side.dir_count);
         }
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
+        if (m_solvers[b] == nullptr)
+            continue;
+        std::vector<int>& rows = m_data[b].read_rows;
+        std::sort(rows.begin(), rows.end());
+        rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+        // Reading most rows: sum them all (contiguous).
+        if (2 * static_cast<Index>(rows.size()) > m_solvers[b]->contact_response().response_size())
+            rows.clear();
+    }
+}
+
+void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all_rows)
+{
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
+        if (m_solvers[b] == nullptr)
+            continue;
+        BodyData& data = m_data[b];
+        const Index size = m_solvers[b]->contact_response().response_size();
+        if (data.displacement.rows() != size)
+            data.displacement.resize(size, 3);
+        if (all_rows || data.read_rows.empty())
+            data.displacement.setZero();
+        else
+            for (const int r : data.read_rows)
+                data.displacement.row(r).setZero();
+    }
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = 0; a < m; ++a) {
         if (!(forces.row(a).squaredNorm() > 0.0))
@@ -107,10 +135,15 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces)
         const Record& record = m_records[static_cast<std::size_t>(a)];
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
+            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
             double scale = 1.0;
             const auto z = response(side, scale);
-            m_data[static_cast<std::size_t>(side.body)].displacement.noalias()
-                += z * (scale * forces.row(a));
+            const Eigen::RowVector3d f = scale * forces.row(a);
+            if (all_rows || data.read_rows.empty())
+                data.displacement.noalias() += z * f;
+            else
+                for (const int r : data.read_rows)
+                    data.displacement.row(r) += z(r) * f;
         }
     }
 }
@@ -120,7 +153,7 @@ void ContactStage::displace(const Eigen::Ref<const MatX3>& free,
     const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
     Eigen::Ref<MatX3> positions)
 {
-    sum_responses(forces);
+    sum_responses(forces, false);
     const Index m = static_cast<Index>(m_records.size());
     for (Index c = 0; c < m; ++c) {
         if (keep != nullptr && (*keep)[static_cast<std::size_t>(c)])
