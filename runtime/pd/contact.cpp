@@ -208,12 +208,10 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     int sweep = 0;
     while (true) {
         working.clear();
-        rows.clear();
         for (Index c = 0; c < m; ++c)
-            if (member[static_cast<std::size_t>(c)]) {
+            if (member[static_cast<std::size_t>(c)])
                 working.push_back(c);
-                rows.push_back(coupling.cover(c));
-            }
+        coupling.cover_all(working, rows);
         for (; sweep < settings.max_sweeps; ++sweep) {
             const double change = solve.sweep(working, rows);
             result.sweeps = sweep + 1;

@@ -19,11 +19,18 @@ public:
 
     /// Length of a response vector (k reduced, n full).
     virtual Index response_size() const = 0;
-    /// Makes the responses of `nodes` available (cached across calls while the nodes stay in
-    /// the list; nodes dropped from the list are forgotten).
-    virtual void prepare_nodes(const std::vector<int>& nodes) = 0;
-    /// z_j of a prepared node.
-    virtual Eigen::Ref<const VecX> node_response(int node) const = 0;
+    /// A new step of contacts: the responses not asked for in the last step may be forgotten.
+    virtual void begin_contacts() = 0;
+    /// Computes the responses of those of `nodes` not kept yet, together (a full-space body
+    /// solves them as one multi-column solve; the default asks for each).
+    virtual void request_nodes(const std::vector<int>& nodes)
+    {
+        for (const int node : nodes)
+            node_response(node);
+    }
+    /// z_j, computed the first time it is asked for (and kept while it is asked for each step);
+    /// the reference stays valid until the next begin_contacts().
+    virtual Eigen::Ref<const VecX> node_response(int node) = 0;
     /// How far node i moves along a response: the row of node i applied to `response`.
     virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
     /// Adds `displacement` (response_size() x 3, a sum of responses z f^T: the displacement

@@ -201,23 +201,13 @@ void ContactStage::begin_step(
     for (Index a = 0; a < m; ++a)
         m_start.row(a) = m_records[static_cast<std::size_t>(a)].start.transpose();
     prepare_responses(bodies);
-    // Only the diagonal now: the rest of W between two contacts when both have been in a
-    // working set (prepare()).
+    // Nothing of W yet: a contact's diagonal entry and responses when it joins a working set
+    // (cover()), its column when it first pushes (column()).
+    m_diagonal.setZero();
     m_row_of.assign(static_cast<std::size_t>(m), -1);
     m_column_of.assign(static_cast<std::size_t>(m), -1);
     m_rows.clear();
     m_cols.clear();
-    for (Index a = 0; a < m; ++a) {
-        const Record& record = m_records[static_cast<std::size_t>(a)];
-        double sum = 0.0;
-        for (int s = 0; s < record.num_sides; ++s) {
-            const Side& side = record.sides[static_cast<std::size_t>(s)];
-            double scale = 1.0;
-            const auto z = response(side, scale);
-            sum += scale * side_apply(side, z);
-        }
-        m_diagonal(a) = sum;
-    }
     // Warm start: the last step's forces; then forget them, so that a contact that drops out
     // and comes back later does not start from a stale force (end_step writes the current ones).
     for (Index a = 0; a < m; ++a) {
@@ -250,33 +240,29 @@ void ContactStage::begin_step(
 
 void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies)
 {
-    // Each stepped body's nodes with a term, sorted: their responses z_j.
+    // A pool slot for each side with several terms (its response sum_t w_t z_t, computed when
+    // first asked for); the node responses z_j are the bodies' own, also computed when asked for.
     for (std::size_t b = 0; b < bodies.size(); ++b) {
-        m_data[b].nodes.clear();
         m_data[b].pool_used = 0;
+        if (bodies[b].solver != nullptr)
+            bodies[b].solver->contact_response().begin_contacts();
     }
     for (Record& record : m_records)
         for (int s = 0; s < record.num_sides; ++s) {
             Side& side = record.sides[static_cast<std::size_t>(s)];
-            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
-            for (int k = side.first; k < side.first + side.count; ++k)
-                data.nodes.push_back(m_term_node[static_cast<std::size_t>(k)]);
             if (side.count > 1)
-                side.slot = data.pool_used++;
+                side.slot = m_data[static_cast<std::size_t>(side.body)].pool_used++;
         }
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         if (bodies[b].solver == nullptr)
             continue;
         BodyData& data = m_data[b];
-        std::sort(data.nodes.begin(), data.nodes.end());
-        data.nodes.erase(std::unique(data.nodes.begin(), data.nodes.end()), data.nodes.end());
-        ContactResponse& global = bodies[b].solver->contact_response();
-        global.prepare_nodes(data.nodes);
-        if (data.pool_used > data.responses.cols())
-            data.responses.resize(
-                global.response_size(), std::max<Index>(data.pool_used, 2 * data.responses.cols()));
+        const Index size = bodies[b].solver->contact_response().response_size();
+        if (data.pool_used > data.responses.cols() || data.responses.rows() != size)
+            data.responses.resize(size, std::max<Index>(data.pool_used, 2 * data.responses.cols()));
+        data.pool_ready.assign(static_cast<std::size_t>(data.pool_used), 0);
     }
-    // Each side's direction; a side with several terms keeps its response sum_t w_t z_t.
+    // Each side's direction.
     m_dir_index.clear();
     m_dir_value.clear();
     for (Record& record : m_records)
@@ -292,31 +278,26 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
             side.dir_count = static_cast<int>(m_dir_index.size()) - side.dir_first;
         }
     find_read_rows();
-    for (const Record& record : m_records)
-        for (int s = 0; s < record.num_sides; ++s) {
-            const Side& side = record.sides[static_cast<std::size_t>(s)];
-            if (side.slot < 0)
-                continue;
-            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
-            const ContactResponse& global
-                = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
-            auto column = data.responses.col(side.slot);
-            column.setZero();
-            for (int k = side.first; k < side.first + side.count; ++k)
-                column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
-                    * global.node_response(m_term_node[static_cast<std::size_t>(k)]);
-        }
 }
 
-Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale) const
+Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale)
 {
-    if (side.slot >= 0) {
-        scale = 1.0;
-        return m_data[static_cast<std::size_t>(side.body)].responses.col(side.slot);
+    ContactResponse& global = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
+    if (side.slot < 0) {
+        scale = m_term_weight[static_cast<std::size_t>(side.first)];
+        return global.node_response(m_term_node[static_cast<std::size_t>(side.first)]);
     }
-    scale = m_term_weight[static_cast<std::size_t>(side.first)];
-    return m_solvers[static_cast<std::size_t>(side.body)]->contact_response().node_response(
-        m_term_node[static_cast<std::size_t>(side.first)]);
+    scale = 1.0;
+    BodyData& data = m_data[static_cast<std::size_t>(side.body)];
+    auto column = data.responses.col(side.slot);
+    if (!data.pool_ready[static_cast<std::size_t>(side.slot)]) {
+        column.setZero();
+        for (int k = side.first; k < side.first + side.count; ++k)
+            column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
+                * global.node_response(m_term_node[static_cast<std::size_t>(k)]);
+        data.pool_ready[static_cast<std::size_t>(side.slot)] = 1;
+    }
+    return column;
 }
 
 double ContactStage::side_apply(const Side& side, const Eigen::Ref<const VecX>& z) const

@@ -158,9 +158,10 @@ private:
         MatX3 previous_ground; ///< #nodes * #planes x 3: last step's ground forces
         MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)
         std::vector<std::array<int, 2>> used; ///< (node, plane or -1) warm starts read
-        std::vector<int> nodes; ///< this step's nodes with a response
         MatX responses; ///< pool of multi-term responses, one column each
         int pool_used = 0;
+        std::vector<char> pool_ready; ///< per pool column, computed this step
+        std::vector<int> requested; ///< cover_all's scratch: nodes whose responses it needs
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
         /// The rows of the response space its sides' directions read, increasing (empty: all;
@@ -177,15 +178,17 @@ private:
     /// Each stepped body's BodyData::read_rows.
     void find_read_rows();
     /// The side's response (pool column or node response) and the scale of its single term.
-    Eigen::Ref<const VecX> response(const Side& side, double& scale) const;
+    /// Computed when first asked for in the step.
+    Eigen::Ref<const VecX> response(const Side& side, double& scale);
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const Eigen::Ref<const VecX>& response) const;
     Vec3 side_position(const Side& side) const;
     /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
-    double coupling_between(Index c, Index d) const;
+    double coupling_between(Index c, Index d);
     // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).
     const VecX& diagonal() const override { return m_diagonal; }
     int cover(Index c) override;
+    void cover_all(const std::vector<Index>& contacts, std::vector<int>& rows) override;
     const double* column(Index c) override;
     void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
         const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;

@@ -9,7 +9,7 @@
 
 namespace mat {
 
-double ContactStage::coupling_between(Index c, Index d) const
+double ContactStage::coupling_between(Index c, Index d)
 {
     const Record& record_c = m_records[static_cast<std::size_t>(c)];
     const Record& record_d = m_records[static_cast<std::size_t>(d)];
@@ -53,9 +53,35 @@ int ContactStage::cover(Index c)
     reserve_block(m_columns, rows, cols, std::max<Index>(rows + 1, 64), std::max<Index>(cols, 16));
     for (Index p = 0; p < cols; ++p)
         m_columns(rows, p) = coupling_between(c, m_cols[static_cast<std::size_t>(p)]);
+    m_diagonal(c) = coupling_between(c, c);
     m_rows.push_back(c);
     row = static_cast<int>(rows);
     return row;
+}
+
+// The responses the new rows need, requested per body at once (a full-space body solves them
+// together), then the rows.
+void ContactStage::cover_all(const std::vector<Index>& contacts, std::vector<int>& rows)
+{
+    for (BodyData& data : m_data)
+        data.requested.clear();
+    for (const Index c : contacts) {
+        if (m_row_of[static_cast<std::size_t>(c)] >= 0)
+            continue;
+        const Record& record = m_records[static_cast<std::size_t>(c)];
+        for (int s = 0; s < record.num_sides; ++s) {
+            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            std::vector<int>& requested = m_data[static_cast<std::size_t>(side.body)].requested;
+            for (int k = side.first; k < side.first + side.count; ++k)
+                requested.push_back(m_term_node[static_cast<std::size_t>(k)]);
+        }
+    }
+    for (std::size_t b = 0; b < m_data.size(); ++b)
+        if (m_solvers[b] != nullptr && !m_data[b].requested.empty())
+            m_solvers[b]->contact_response().request_nodes(m_data[b].requested);
+    rows.clear();
+    for (const Index c : contacts)
+        rows.push_back(cover(c));
 }
 
 // A new column: W between each covered contact and d (J_c D_b z_d over d's sides).

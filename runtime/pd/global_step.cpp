@@ -10,56 +10,6 @@
 
 namespace mat {
 
-CouplingCache::CouplingCache(Index num_nodes, Index rows)
-    : m_slot(num_nodes, -1)
-    , m_rows(rows)
-    , m_columns(rows, 0)
-    , m_scratch(rows, 0)
-{
-}
-
-const std::vector<int>& CouplingCache::update(const std::vector<int>& nodes)
-{
-    // Keep the columns of nodes still listed, in the new order; the others are recomputed.
-    m_missing.clear();
-    const Index rows = m_rows;
-    const Index count = static_cast<Index>(nodes.size());
-    if (m_scratch.cols() < count)
-        m_scratch.resize(rows, std::max<Index>(count, 2 * m_scratch.cols()));
-    for (Index c = 0; c < count; ++c) {
-        const int node = nodes[c];
-        MAT_CHECK(node >= 0 && node < static_cast<int>(m_slot.size()),
-            "coupling cache: node {} out of range", node);
-        if (m_slot[node] >= 0)
-            m_scratch.col(c) = m_columns.col(m_slot[node]);
-        else
-            m_missing.push_back(node);
-    }
-    for (const int node : m_nodes)
-        m_slot[node] = -1;
-    m_nodes = nodes;
-    std::swap(m_columns, m_scratch);
-    for (Index c = 0; c < count; ++c) {
-        MAT_CHECK(m_slot[nodes[c]] < 0, "coupling cache: node {} listed twice", nodes[c]);
-        m_slot[nodes[c]] = static_cast<int>(c);
-    }
-    if (m_scratch.cols() < m_columns.cols())
-        m_scratch.resize(rows, m_columns.cols());
-    return m_missing;
-}
-
-Eigen::Ref<VecX> CouplingCache::column(int node)
-{
-    MAT_CHECK(m_slot[node] >= 0, "coupling cache: node {} was not prepared", node);
-    return m_columns.col(m_slot[node]);
-}
-
-Eigen::Ref<const VecX> CouplingCache::column(int node) const
-{
-    MAT_CHECK(m_slot[node] >= 0, "coupling cache: node {} was not prepared", node);
-    return m_columns.col(m_slot[node]);
-}
-
 // ---- reduced ------------------------------------------------------------------------------------
 
 ReducedGlobalStep::ReducedGlobalStep(const Model& model)
@@ -163,15 +113,17 @@ void ReducedGlobalStep::solve(const LocalSums& rhs, SolverTimings& timings)
     timings.solve += timer.seconds();
 }
 
-void ReducedGlobalStep::prepare_nodes(const std::vector<int>& nodes)
+Eigen::Ref<const VecX> ReducedGlobalStep::node_response(int node)
 {
-    for (const int node : m_cache.update(nodes)) {
-        auto z = m_cache.column(node);
+    bool fresh = false;
+    auto z = m_cache.column(node, fresh);
+    if (fresh) {
         z.setZero();
         for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
             z(it.index()) = it.value();
         m_model.reduced_system().solveInPlace(z);
     }
+    return z;
 }
 
 double ReducedGlobalStep::apply(int node, const Eigen::Ref<const VecX>& response) const
@@ -247,14 +199,46 @@ void FullGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
     timings.solve += timer.seconds();
 }
 
-void FullGlobalStep::prepare_nodes(const std::vector<int>& nodes)
+// In blocks of columns: one multi-column solve is far faster than as many single ones, and a
+// block bounds the memory (n x 32 doubles).
+void FullGlobalStep::request_nodes(const std::vector<int>& nodes)
 {
-    for (const int node : m_cache.update(nodes)) {
+    constexpr Index request_block = 32;
+    m_missing.clear();
+    for (const int node : nodes)
+        if (!m_cache.has(node))
+            m_missing.push_back(node);
+    std::sort(m_missing.begin(), m_missing.end());
+    m_missing.erase(std::unique(m_missing.begin(), m_missing.end()), m_missing.end());
+    const Index n = m_x.rows();
+    for (std::size_t first = 0; first < m_missing.size();
+         first += static_cast<std::size_t>(request_block)) {
+        const Index count
+            = std::min<Index>(request_block, static_cast<Index>(m_missing.size() - first));
+        if (m_units.rows() != n || m_units.cols() != count)
+            m_units.resize(n, count);
+        m_units.setZero();
+        for (Index c = 0; c < count; ++c)
+            m_units(m_missing[first + static_cast<std::size_t>(c)], c) = 1.0;
+        m_cholesky.solve_in_place(m_units);
+        for (Index c = 0; c < count; ++c) {
+            bool fresh = false;
+            m_cache.column(m_missing[first + static_cast<std::size_t>(c)], fresh) = m_units.col(c);
+        }
+    }
+}
+
+Eigen::Ref<const VecX> FullGlobalStep::node_response(int node)
+{
+    bool fresh = false;
+    auto z = m_cache.column(node, fresh);
+    if (fresh) {
         MatX unit = MatX::Zero(m_x.rows(), 1);
         unit(node, 0) = 1.0;
         m_cholesky.solve_in_place(unit);
-        m_cache.column(node) = unit.col(0);
+        z = unit.col(0);
     }
+    return z;
 }
 
 void FullGlobalStep::direction(const int* nodes, const double* weights, int count,

@@ -14,6 +14,7 @@
 #include "runtime/model.hpp"
 #include "runtime/pd/basis_products.hpp"
 #include "runtime/pd/contact_response.hpp"
+#include "runtime/pd/response_cache.hpp"
 
 namespace mat {
 
@@ -60,25 +61,6 @@ public:
 };
 
 /// Maps prepared nodes to columns of a dense cache, keeping columns of nodes still listed.
-class CouplingCache {
-public:
-    /// `rows` is the length of one column.
-    CouplingCache(Index num_nodes, Index rows);
-    /// Reorganizes the cache for `nodes`; returns the nodes whose columns must be (re)computed
-    /// and written through column(node).
-    const std::vector<int>& update(const std::vector<int>& nodes);
-    Eigen::Ref<VecX> column(int node);
-    Eigen::Ref<const VecX> column(int node) const;
-
-private:
-    std::vector<int> m_slot; ///< node -> column, -1 if absent
-    std::vector<int> m_nodes; ///< column -> node
-    std::vector<int> m_missing;
-    Index m_rows = 0;
-    MatX m_columns;
-    MatX m_scratch;
-};
-
 /// Reduced global step: S q = B^T (b - A X), x = X + B q with S = B^T A B prefactored in the
 /// model (dense LLT). Up to dense_inverse_limit columns, the step keeps S^-1 itself and a solve
 /// is one product of it with the three right-hand sides, in row blocks in parallel: triangular
@@ -93,8 +75,8 @@ public:
     void solve(const LocalSums& rhs, SolverTimings& timings) override;
     ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_q.rows(); }
-    void prepare_nodes(const std::vector<int>& nodes) override;
-    Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
+    void begin_contacts() override { m_cache.begin_step(); }
+    Eigen::Ref<const VecX> node_response(int node) override;
     double apply(int node, const Eigen::Ref<const VecX>& response) const override;
     void add_displacement(const Eigen::Ref<const MatX3>& displacement) override;
     const MatX* reduced_coordinates() const override { return &m_q; }
@@ -116,7 +98,7 @@ private:
     MatX3 m_rest_system; ///< A X  n x 3 (constant)
     MatX m_q; ///< k x 3
     MatX3 m_q_rows; ///< k x 3 row-major copy of m_q for the reconstruction
-    CouplingCache m_cache; ///< S^-1 b_j^T per prepared node j
+    ResponseCache m_cache; ///< S^-1 b_j^T per node j asked for
     /// S^-1 when k <= dense_inverse_limit (else empty: the LLT's solves).
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m_inverse;
     MatX m_q_columns; ///< k x 3: the right-hand sides, column-major
@@ -136,8 +118,9 @@ public:
     void solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings) override;
     ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_x.rows(); }
-    void prepare_nodes(const std::vector<int>& nodes) override;
-    Eigen::Ref<const VecX> node_response(int node) const override { return m_cache.column(node); }
+    void begin_contacts() override { m_cache.begin_step(); }
+    void request_nodes(const std::vector<int>& nodes) override;
+    Eigen::Ref<const VecX> node_response(int node) override;
     double apply(int node, const Eigen::Ref<const VecX>& response) const override
     {
         return response(node);
@@ -152,7 +135,9 @@ public:
 private:
     SparseCholesky m_cholesky;
     MatX3 m_x; ///< n x 3
-    CouplingCache m_cache; ///< A^-1 e_j per prepared node j
+    ResponseCache m_cache; ///< A^-1 e_j per node j asked for
+    std::vector<int> m_missing; ///< request_nodes' scratch
+    MatX m_units; ///< request_nodes' right-hand sides, n x up to request_block
 };
 
 } // namespace mat
