@@ -272,6 +272,7 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         data.nodes.erase(std::unique(data.nodes.begin(), data.nodes.end()), data.nodes.end());
         ContactResponse& global = bodies[b].solver->contact_response();
         global.prepare_nodes(data.nodes);
+        bodies[b].solver->set_contact_nodes(static_cast<Index>(data.nodes.size()));
         if (data.pool_used > data.responses.cols())
             data.responses.resize(
                 global.response_size(), std::max<Index>(data.pool_used, 2 * data.responses.cols()));

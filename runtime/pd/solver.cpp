@@ -9,6 +9,7 @@
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/pd/hyper_reduced.hpp"
+#include "runtime/pd/pd_energy.hpp"
 #include "runtime/pd/pin_term.hpp"
 
 namespace mat {
@@ -24,6 +25,9 @@ namespace {
         if (!(options.node_contact_compliance >= 0.0))
             throw_error("solver: node contact compliance {} must be non-negative",
                 options.node_contact_compliance);
+        if (options.anderson_window < 1 || options.anderson_window > anderson_max_window)
+            throw_error("solver: anderson_window {} must be in [1, {}]", options.anderson_window,
+                anderson_max_window);
         if (!(options.contact_margin >= 0.0))
             throw_error("solver: contact margin {} must be non-negative", options.contact_margin);
         for (std::size_t p = 0; p < options.planes.size(); ++p) {
@@ -46,6 +50,15 @@ SolverKind parse_solver_kind(const std::string& name)
     if (name == "hyper")
         return SolverKind::hyper_reduced;
     throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
+}
+
+Acceleration parse_acceleration(const std::string& name)
+{
+    if (name == "none")
+        return Acceleration::none;
+    if (name == "anderson")
+        return Acceleration::anderson;
+    throw_error("acceleration: '{}' is not one (expected none or anderson)", name);
 }
 
 PdSolver semi_reduced_solver(const Model& model, const SolverOptions& options)
@@ -108,6 +121,13 @@ void EveryTetLocalStage::iterate(const Model& model, int /*iteration*/,
     m_local.assemble(model, positions, base, m_rhs);
     timings.local += timer.seconds();
     global.solve(m_rhs, timings);
+}
+
+double EveryTetLocalStage::energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
+    const Eigen::Ref<const MatX3>& inertia, const Eigen::Ref<const MatX3>& pin_targets)
+{
+    return inertia_energy(model, positions, inertia) + pin_energy(model, positions, pin_targets)
+        + m_local.energy();
 }
 
 PdSolver::PdSolver(const Model& model, const SolverOptions& options,
@@ -192,16 +212,74 @@ void PdSolver::begin_step(const State& in, State& out)
     add_pin_term(model, m_pin_targets, m_rhs_base);
     m_global->add_constant_terms(m_rhs_base);
     m_timings.rhs += timer.seconds();
+    m_contact_nodes = 0; // the contact stage's begin_step sets it
 }
 
 void PdSolver::iterate(int iteration)
 {
     MAT_CHECK(m_out != nullptr, "solver: iterate() outside a step");
+    if (iteration == 0)
+        begin_acceleration();
     m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
+    if (m_accelerating)
+        check_energy(iteration);
+}
+
+void PdSolver::begin_acceleration()
+{
+    // Only in steps without contact candidates: the energy does not see the contact forces, and
+    // an extrapolation of contact-corrected iterates can leave the contact set (docs/method.md,
+    // "Accelerated iterations"). Two iterations or fewer leave nothing to extrapolate.
+    m_accelerating = m_options.acceleration == Acceleration::anderson && m_contact_nodes == 0
+        && m_options.iterations > 2;
+    m_extrapolated = false;
+    m_local->set_energy(m_accelerating);
+    if (!m_accelerating)
+        return;
+    const Eigen::Map<VecX> solution = m_global->solution();
+    m_anderson.configure(solution.size(), m_options.anderson_window);
+    // Full space iterates positions, and s is the first of them; a reduced one starts from its
+    // first solve (s is outside the subspace).
+    if (m_global->reduced_coordinates() == nullptr)
+        m_anderson.start(m_inertia.data());
+}
+
+void PdSolver::check_energy(int iteration)
+{
+    Timer timer;
+    double energy = m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
+    if (m_extrapolated && !(energy <= m_report.energy)) {
+        // Refused: back to the plain iterate, the history cleared, and the iteration again.
+        Eigen::Map<VecX> solution = m_global->solution();
+        m_anderson.fall_back(solution.data());
+        if (m_local->reads_iterate())
+            m_global->positions(m_out->positions, m_timings);
+        m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
+        energy = m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
+        ++m_report.rejected;
+        ++m_timings.refused;
+    } else if (m_extrapolated) {
+        ++m_report.accelerated;
+        ++m_timings.accelerated;
+    }
+    m_report.energy = energy;
+    m_extrapolated = false;
+    m_timings.acceleration += timer.seconds();
 }
 
 void PdSolver::finish_iteration(int iteration)
 {
+    if (m_accelerating && iteration + 1 < m_options.iterations) {
+        // The next iterate from this one's solve (after the contact stage, which found no
+        // candidates): the last solve is kept plain, so the step ends on an accepted iterate.
+        Timer timer;
+        Eigen::Map<VecX> solution = m_global->solution();
+        if (!m_anderson.started())
+            m_anderson.start(solution.data());
+        else
+            m_extrapolated = m_anderson.advance(solution.data());
+        m_timings.acceleration += timer.seconds();
+    }
     if (m_local->reads_iterate() || iteration + 1 == m_options.iterations)
         m_global->positions(m_out->positions, m_timings);
     ++m_timings.iterations;
