@@ -37,11 +37,15 @@ namespace {
 
 } // namespace
 
-void AndersonAcceleration::configure(Index size, int window)
+void AndersonAcceleration::configure(Index size, int window, const Eigen::Ref<const VecX>& weights)
 {
     MAT_CHECK(window >= 1 && window <= anderson_max_window, "anderson: window {} outside [1, {}]",
         window, anderson_max_window);
+    MAT_CHECK(weights.size() == size && (weights.array() > 0.0).all(),
+        "anderson: {} weights for {} entries (all must be positive)", weights.size(), size);
     m_started = false;
+    if (m_weights.data() != weights.data())
+        m_weights = weights;
     if (size == m_size && window == m_window)
         return;
     m_size = size;
@@ -100,8 +104,9 @@ bool AndersonAcceleration::advance(double* g)
         for (int c = 0; c < count; ++c) {
             double gram = 0.0, rhs = 0.0;
             for (Index i = first; i < last; ++i) {
-                gram += m_df(i, j) * m_df(i, c);
-                rhs += m_df(i, c) * m_f(i);
+                const double weighted = m_weights(i) * m_df(i, c);
+                gram += m_df(i, j) * weighted;
+                rhs += m_f(i) * weighted;
             }
             m_partial(c, b) = gram;
             m_partial(m_window + c, b) = rhs;
@@ -138,6 +143,21 @@ bool AndersonAcceleration::advance(double* g)
         }
     });
     return usable;
+}
+
+double AndersonAcceleration::residual_norm(const double* g)
+{
+    MAT_CHECK(m_started, "anderson: residual_norm() before start()");
+    for_blocks(m_size, [&](Index b, Index first, Index last) {
+        double sum = 0.0;
+        for (Index i = first; i < last; ++i)
+            sum += m_weights(i) * (g[i] - m_u(i)) * (g[i] - m_u(i));
+        m_partial(0, b) = sum;
+    });
+    double sum = 0.0;
+    for (Index b = 0; b < m_partial.cols(); ++b)
+        sum += m_partial(0, b);
+    return std::sqrt(sum);
 }
 
 void AndersonAcceleration::fall_back(double* out)

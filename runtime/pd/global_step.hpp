@@ -119,7 +119,6 @@ public:
     void set_reduced_coordinates(const Eigen::Ref<const MatX>& q) override;
     /// The basis products the step uses (B^T y, X + B q).
     BasisProducts& products() { return m_products; }
-    const Model& model() const { return m_model; }
 
 private:
     const Model& m_model;

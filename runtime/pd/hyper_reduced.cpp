@@ -5,13 +5,11 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCore>
-#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "common/timer.hpp"
-#include "runtime/pd/pd_energy.hpp"
 
 namespace mat {
 
@@ -179,9 +177,6 @@ void SampledLocalStage::iterate(const Model& model, int iteration,
         }
     }
     timings.reconstruct += timer.seconds();
-    m_iteration = iteration;
-    if (iteration == 0 && m_local->energy_on())
-        begin_energy(model, positions);
 
     timer.restart();
     m_local->compute_touched(model, m_positions, m_forces);
@@ -217,76 +212,6 @@ void SampledLocalStage::iterate(const Model& model, int iteration,
     });
     m_reduced->set_reduced_coordinates(m_q);
     timings.solve += timer.seconds();
-}
-
-} // namespace mat
-
-namespace mat {
-
-void SampledLocalStage::set_energy(bool on)
-{
-    m_local->set_energy(on);
-    if (!on || m_reduced_mass.size() > 0)
-        return;
-    const Model& model = m_reduced->model();
-    const Index k = model.num_columns();
-    const Eigen::SparseMatrix<double> basis = model.basis();
-    const Eigen::SparseMatrix<double> basis_t = model.basis_transpose();
-    m_reduced_mass = MatX(basis_t * (model.masses().asDiagonal() * basis));
-    double sampled = 0.0;
-    for (const int e : m_samples)
-        sampled += model.rest_volumes()(e);
-    m_volume_scale = model.rest_volumes().sum() / sampled;
-    m_work = MatX3::Zero(model.num_nodes(), 3);
-    m_q_start = MatX3::Zero(k, 3);
-    m_inertia_shift = MatX3::Zero(k, 3);
-    m_dq = MatX::Zero(k, 3);
-    m_mass_dq = MatX::Zero(k, 3);
-}
-
-// With x = X + B q and r0 = X + B q0 - s (q0 the step's first q):
-//   1/(2 h^2) ||x - s||_M^2 = (q - q0)^T B^T M B (q - q0) / (2 h^2) + (q - q0) . B^T M r0 / h^2
-//                             + ||r0||_M^2 / (2 h^2),
-// exact, and without the cancellation of expanding around q = 0 (q - q0 is one step's motion).
-void SampledLocalStage::begin_energy(const Model& model, const Eigen::Ref<const MatX3>& inertia)
-{
-    m_q_start = *m_reduced->reduced_coordinates();
-    m_reduced->products().reconstruct(m_q_start.data(), m_work.data());
-    m_inertia_constant = inertia_energy(model, m_work, inertia);
-    const double inv_h2 = 1.0 / (model.time_step() * model.time_step());
-    const VecX& masses = model.masses();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, model.num_nodes()),
-        [&](const tbb::blocked_range<Index>& range) {
-            for (Index i = range.begin(); i != range.end(); ++i)
-                m_work.row(i) = (masses(i) * inv_h2) * (m_work.row(i) - inertia.row(i));
-        });
-    m_reduced->products().transpose_times(m_work.data(), m_inertia_shift.data());
-}
-
-double SampledLocalStage::energy(const Model& model, const Eigen::Ref<const MatX3>& /*positions*/,
-    const Eigen::Ref<const MatX3>& /*inertia*/, const Eigen::Ref<const MatX3>& pin_targets)
-{
-    MAT_CHECK(m_local->energy_on(), "hyper-reduced: the energy was not requested");
-    if (m_iteration == 0)
-        return std::numeric_limits<double>::infinity(); // s is outside the subspace
-    // m_q_rows: the q this iteration read.
-    m_dq = m_q_rows - m_q_start;
-    tbb::parallel_for(
-        0, 3, [&](int c) { m_mass_dq.col(c).noalias() = m_reduced_mass * m_dq.col(c); });
-    const double inv_h2 = 1.0 / (model.time_step() * model.time_step());
-    double inertia = m_inertia_constant;
-    for (int c = 0; c < 3; ++c)
-        inertia += 0.5 * inv_h2 * m_dq.col(c).dot(m_mass_dq.col(c))
-            + m_dq.col(c).dot(m_inertia_shift.col(c));
-    double pins = 0.0;
-    const std::vector<int>& pinned = model.pinned_nodes();
-    for (std::size_t p = 0; p < pinned.size(); ++p) {
-        Eigen::RowVector3d x = model.rest_positions().row(pinned[p]);
-        for (SparseRowMatrix::InnerIterator it(model.basis(), pinned[p]); it; ++it)
-            x += it.value() * m_q_rows.row(it.index());
-        pins += (x - pin_targets.row(static_cast<Index>(p))).squaredNorm();
-    }
-    return inertia + 0.5 * model.pin_weight() * pins + m_volume_scale * m_local->energy();
 }
 
 } // namespace mat

@@ -52,12 +52,6 @@ public:
         const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
     bool reads_iterate() const override { return false; }
     Index num_tets() const override { return static_cast<Index>(m_samples.size()); }
-    /// The energy here: inertia and pins exact in the subspace (x = X + B q), the elastic sum
-    /// over the samples scaled by the total rest volume over the samples' (see the .cpp).
-    void set_energy(bool on) override;
-    double energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
-        const Eigen::Ref<const MatX3>& inertia,
-        const Eigen::Ref<const MatX3>& pin_targets) override;
     LocalStep& local_step() override { return *m_local; }
 
     const std::vector<int>& sample_tets() const { return m_samples; }
@@ -81,19 +75,6 @@ private:
     MatX m_sample_rhs; ///< y  k x 3
     MatX m_q_base; ///< S^-1 (B^T base + the fit constant)  k x 3, once per step
     MatX m_q; ///< k x 3
-    // The energy (with set_energy(true); allocated on its first use).
-    int m_iteration = 0; ///< of the last iterate()
-    double m_volume_scale = 1.0; ///< total rest volume / the samples'
-    MatX m_reduced_mass; ///< B^T M B  k x k
-    MatX3 m_work; ///< n x 3
-    MatX3 m_q_start; ///< q0: q at the step's start  k x 3
-    MatX3 m_inertia_shift; ///< B^T M (X + B q0 - s) / h^2  k x 3
-    double m_inertia_constant = 0.0; ///< ||X + B q0 - s||_M^2 / (2 h^2)
-    MatX m_dq; ///< q - q0  k x 3
-    MatX m_mass_dq; ///< B^T M B (q - q0)  k x 3
-
-    /// At iteration 0, the step's inertia terms in the subspace (`inertia` = s  n x 3).
-    void begin_energy(const Model& model, const Eigen::Ref<const MatX3>& inertia);
 };
 
 } // namespace mat

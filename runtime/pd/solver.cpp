@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -37,6 +38,33 @@ namespace {
             if (!(plane.friction >= 0.0) || !std::isfinite(plane.friction))
                 throw_error("solver: plane {} friction {} must be non-negative", p, plane.friction);
         }
+    }
+
+    /// The weights of Anderson's least squares, per entry of the global step's solution: the
+    /// node masses in full space (x  n x 3 row-major: the M-norm), the diagonal of B^T M B
+    /// reduced (q  k x 3 column-major), scaled to a mean of 1. Unweighted, the coordinates of
+    /// quadratic handles (monomials of the rest positions, small) count for more than they move.
+    VecX acceleration_weights(const Model& model, bool reduced)
+    {
+        const VecX& masses = model.masses();
+        const Index n = model.num_nodes();
+        VecX weights;
+        if (!reduced) {
+            weights.resize(3 * n);
+            for (Index i = 0; i < n; ++i)
+                weights.segment<3>(3 * i).setConstant(masses(i));
+        } else {
+            const Index k = model.num_columns();
+            VecX diagonal = VecX::Zero(k);
+            for (Index i = 0; i < n; ++i)
+                for (SparseRowMatrix::InnerIterator it(model.basis(), i); it; ++it)
+                    diagonal(it.index()) += masses(i) * it.value() * it.value();
+            const double floor = 1e-12 * std::max(diagonal.maxCoeff(), 1e-300);
+            weights.resize(3 * k);
+            for (int c = 0; c < 3; ++c)
+                weights.segment(c * k, k) = diagonal.cwiseMax(floor);
+        }
+        return weights / weights.mean();
     }
 
 } // namespace
@@ -222,7 +250,7 @@ void PdSolver::iterate(int iteration)
         begin_acceleration();
     m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
     if (m_accelerating)
-        check_energy(iteration);
+        safeguard(iteration);
 }
 
 void PdSolver::begin_acceleration()
@@ -233,36 +261,50 @@ void PdSolver::begin_acceleration()
     m_accelerating = m_options.acceleration == Acceleration::anderson && m_contact_nodes == 0
         && m_options.iterations > 2;
     m_extrapolated = false;
-    m_local->set_energy(m_accelerating);
+    m_local->set_energy(m_accelerating && m_local->descends());
     if (!m_accelerating)
         return;
     const Eigen::Map<VecX> solution = m_global->solution();
-    m_anderson.configure(solution.size(), m_options.anderson_window);
+    if (m_anderson_weights.size() != solution.size())
+        m_anderson_weights
+            = acceleration_weights(*m_model, m_global->reduced_coordinates() != nullptr);
+    m_anderson.configure(solution.size(), m_options.anderson_window, m_anderson_weights);
     // Full space iterates positions, and s is the first of them; a reduced one starts from its
     // first solve (s is outside the subspace).
     if (m_global->reduced_coordinates() == nullptr)
         m_anderson.start(m_inertia.data());
 }
 
-void PdSolver::check_energy(int iteration)
+double PdSolver::safeguard_measure()
+{
+    if (m_local->descends())
+        return m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
+    // |G(u) - u|_W of the iterate u the solve read (none before the history starts: s is
+    // outside the subspace).
+    if (!m_anderson.started())
+        return std::numeric_limits<double>::infinity();
+    return m_anderson.residual_norm(m_global->solution().data());
+}
+
+void PdSolver::safeguard(int iteration)
 {
     Timer timer;
-    double energy = m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
-    if (m_extrapolated && !(energy <= m_report.energy)) {
+    double measure = safeguard_measure();
+    if (m_extrapolated && !(measure <= m_report.energy)) {
         // Refused: back to the plain iterate, the history cleared, and the iteration again.
         Eigen::Map<VecX> solution = m_global->solution();
         m_anderson.fall_back(solution.data());
         if (m_local->reads_iterate())
             m_global->positions(m_out->positions, m_timings);
         m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
-        energy = m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
+        measure = safeguard_measure();
         ++m_report.rejected;
         ++m_timings.refused;
     } else if (m_extrapolated) {
         ++m_report.accelerated;
         ++m_timings.accelerated;
     }
-    m_report.energy = energy;
+    m_report.energy = measure;
     m_extrapolated = false;
     m_timings.acceleration += timer.seconds();
 }

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "common/error.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/anderson.hpp"
 #include "runtime/pd/contact.hpp"
@@ -86,8 +87,9 @@ struct StepReport {
     /// The contact forces on the body over the step times the step (N s): what the contacts
     /// added to its momentum.
     Vec3 contact_impulse = Vec3::Zero();
-    /// With acceleration on and no contact candidates: the PD energy of the last accepted
-    /// iterate (J; set by each iterate()), the extrapolated iterates accepted and those the
+    /// With acceleration on and no contact candidates: the safeguard's measure of the last
+    /// accepted iterate (set by each iterate(): its PD energy, J, or for the hyper-reduced
+    /// solver its fixed-point residual), the extrapolated iterates accepted and those the
     /// safeguard refused (their iteration then restarted from the plain iterate).
     double energy = 0.0;
     int accelerated = 0;
@@ -111,15 +113,19 @@ public:
     virtual bool reads_iterate() const = 0;
     /// How many tets the local step projects.
     virtual Index num_tets() const = 0;
-    /// Whether iterate() also evaluates the PD energy (runtime/pd/pd_energy.hpp) of the iterate
-    /// it projects (the accelerated iteration's safeguard).
-    virtual void set_energy(bool on) = 0;
+    /// Whether an iteration never raises the PD energy (runtime/pd/pd_energy.hpp): then the
+    /// accelerated iteration's safeguard is that energy, else the fixed-point residual.
+    virtual bool descends() const { return false; }
+    /// Whether iterate() also evaluates the PD energy of the iterate it projects (a stage that
+    /// descends).
+    virtual void set_energy(bool /*on*/) { }
     /// That energy at the last iterate() (with set_energy(true)): `positions` the iterate it read,
-    /// `inertia` s, `pin_targets` #pinned x 3. Infinite for an iterate outside the stage's
-    /// subspace (the hyper-reduced stage's iteration 0, at s).
-    virtual double energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
-        const Eigen::Ref<const MatX3>& inertia, const Eigen::Ref<const MatX3>& pin_targets)
-        = 0;
+    /// `inertia` s, `pin_targets` #pinned x 3.
+    virtual double energy(const Model& /*model*/, const Eigen::Ref<const MatX3>& /*positions*/,
+        const Eigen::Ref<const MatX3>& /*inertia*/, const Eigen::Ref<const MatX3>& /*pin_targets*/)
+    {
+        throw_error("solver: this local stage has no energy");
+    }
     /// The local step (its warm start goes into checkpoints).
     virtual LocalStep& local_step() = 0;
     const LocalStep& local_step() const { return const_cast<LocalStage*>(this)->local_step(); }
@@ -133,6 +139,7 @@ public:
         const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
     bool reads_iterate() const override { return true; }
     Index num_tets() const override { return m_num_tets; }
+    bool descends() const override { return true; }
     void set_energy(bool on) override { m_local.set_energy(on); }
     double energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
         const Eigen::Ref<const MatX3>& inertia,
@@ -219,12 +226,15 @@ private:
     bool m_accelerating = false; ///< in this step
     bool m_extrapolated = false; ///< the iterate the next iterate() reads is extrapolated
     AndersonAcceleration m_anderson;
+    VecX m_anderson_weights; ///< the least squares' weights (made on the first accelerated step)
 
     /// At iteration 0: whether this step accelerates, and its start.
     void begin_acceleration();
     /// After iterate()'s solve: the safeguard (redo the iteration from the plain iterate if the
-    /// extrapolated one raised the energy).
-    void check_energy(int iteration);
+    /// extrapolated one raised the energy, or the residual).
+    void safeguard(int iteration);
+    /// The safeguard's measure of the iterate the last iterate() read.
+    double safeguard_measure();
 };
 
 // The three modes as compositions (see the file comment). Throw mat::Error if a part cannot be
