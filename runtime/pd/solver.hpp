@@ -19,6 +19,10 @@
 //     contact stage on the global steps' results: exact Signorini-Coulomb conditions for every
 //     contact of every body, inside the iteration (docs/method.md, "Contact")
 //   v_{n+1} = (1 - damping) (x - x_n) / h
+// With `acceleration` anderson, each iteration's global solution is extrapolated from the last
+// ones (Anderson acceleration, runtime/pd/anderson.hpp) and an extrapolation that raises the PD
+// energy (hyper-reduced: the fixed-point residual) is replaced by the plain iterate; steps with
+// contact candidates run plain (docs/method.md, "Accelerated iterations").
 // Damping: `damping` in [0, 1) scales the velocity at the end of each step (0 = none). It is a
 // simple numerical damping (it removes the fraction `damping` of the velocity per step, so its
 // effect depends on dt), not Rayleigh damping. Implicit Euler itself dissipates energy too.

@@ -220,10 +220,11 @@ namespace {
             enum_key(
                 S::solver, "acceleration", &SolverSettings::acceleration, { "none", "anderson" })
                 .set_default("none")
-                .set_doc("the PD iterations of a step: plain, or Anderson-accelerated with an "
-                         "energy safeguard (an extrapolated iterate that raises the PD energy is "
-                         "replaced by the plain one); a body's steps with contact candidates run "
-                         "plain (docs/method.md, \"Accelerated iterations\")"),
+                .set_doc("the PD iterations of a step: plain, or Anderson-accelerated with a "
+                         "safeguard (an extrapolated iterate that raises the PD energy, or with "
+                         "--solver hyper the fixed-point residual, is replaced by the plain one); "
+                         "a body's steps with contact candidates run plain (docs/method.md, "
+                         "\"Accelerated iterations\")"),
             value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)
                 .set_default(5)
                 .at_least(1)
