@@ -58,7 +58,7 @@ solver_available() {
 }
 method_label() { # SOLVER QUADRATIC [ACCELERATION]
     local name suffix=""
-    [ "${3:-none}" = anderson ] && suffix=", Anderson"
+    [ "${3:-none}" = anderson ] && suffix=" + Anderson"
     case "$1" in
         semi) name="semi-reduced PD" ;;
         hyper) name="hyper-reduced PD" ;;
@@ -149,7 +149,7 @@ for entry in $SCENES; do
         run_one "full-space PD" iterations "$it" full "$full_bake" "$it" "full_$it"
     done
     for it in $ANDERSON_ITERATIONS; do
-        run_one "full-space PD, Anderson" iterations "$it" full "$full_bake" "$it" "full_anderson_$it" anderson
+        run_one "full-space PD + Anderson" iterations "$it" full "$full_bake" "$it" "full_anderson_$it" anderson
     done
     reduced_runs() { # METHODS ACCELERATION
         local method solver q n
