@@ -12,8 +12,11 @@
 #   reduced methods: each of REDUCED_METHODS (SOLVER:QUADRATIC) on each handle count of HANDLES
 #                    at the scene's 10 iterations (hyper is used only once mat-run accepts
 #                    --solver hyper),
+#   Anderson:        full-space PD with solver.acceleration "anderson" at each of
+#                    ANDERSON_ITERATIONS, and each of ANDERSON_METHODS (SOLVER:QUADRATIC) on each
+#                    handle count at 10 iterations (docs/method.md, "Accelerated iterations"),
 # with `mat-run --stats --reference`, and collects ms per step (local + rhs + solve +
-# reconstruct + contact, one thread: export and measures excluded) and the RMS and max surface
+# reconstruct + contact + acceleration, one thread: export and measures excluded) and the RMS and max surface
 # distance to the reference (% of the bounding-box diagonal, max over frames) into
 # WORK/results.csv; then tests/bench/speed_accuracy_chart writes the SVGs and the table.
 #
@@ -23,7 +26,8 @@
 #   CHARTS_WORK=/tmp/charts docs/make_charts.sh   work directory (bakes, runs; default BUILD/charts)
 #   CHARTS_ONLY=1 docs/make_charts.sh        only redraw the charts and table from WORK/results.csv
 # Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_ITERATIONS,
-# FULL_ITERATIONS, HANDLES, REDUCED_METHODS, SCENES, THREADS (default 1).
+# FULL_ITERATIONS, HANDLES, REDUCED_METHODS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES, THREADS
+# (default 1).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "${1:-$root/build}" && pwd)"
@@ -42,6 +46,8 @@ REF_ITERATIONS="${REF_ITERATIONS:-400}"
 FULL_ITERATIONS="${FULL_ITERATIONS:-1 2 5 10 20 50 100 200}"
 HANDLES="${HANDLES:-4 8 16 24}"
 REDUCED_METHODS="${REDUCED_METHODS:-semi:none semi:all hyper:none hyper:all}"
+ANDERSON_ITERATIONS="${ANDERSON_ITERATIONS:-5 10 15 20}"
+ANDERSON_METHODS="${ANDERSON_METHODS:-semi:all hyper:all}"
 # scene:surface (relative to the repository), baked with tets of TET_SIZE of the diagonal.
 SCENES="${SCENES:-cantilever:samples/rounded_bar/rounded_bar.obj soft_drop:samples/torus/torus.obj twisting_limb:samples/capsule/capsule.obj}"
 TET_SIZE="${TET_SIZE:-0.04}"
@@ -50,14 +56,15 @@ TET_SIZE="${TET_SIZE:-0.04}"
 solver_available() {
     "$run" --help | grep -A1 -- '--solver' | grep -q "$1"
 }
-method_label() { # SOLVER QUADRATIC
-    local name
+method_label() { # SOLVER QUADRATIC [ACCELERATION]
+    local name suffix=""
+    [ "${3:-none}" = anderson ] && suffix=" + Anderson"
     case "$1" in
         semi) name="semi-reduced PD" ;;
         hyper) name="hyper-reduced PD" ;;
         *) name="$1" ;;
     esac
-    if [ "$2" = all ]; then echo "$name (quadratic)"; else echo "$name (linear)"; fi
+    if [ "$2" = all ]; then echo "$name (quadratic)$suffix"; else echo "$name (linear)$suffix"; fi
 }
 
 # ms per step (solver phases) and the reference error from a --stats file: "ms rms max".
@@ -65,17 +72,19 @@ read_stats() {
     awk '
         /"ms_per_step": \{/ { inside = 1; next }
         inside && /\}/ { inside = 0 }
-        inside && /"(local|rhs|solve|reconstruct|contact)":/ { gsub(/[",]/, ""); ms += $2 }
+        inside && /"(local|rhs|solve|reconstruct|contact|acceleration)":/ { gsub(/[",]/, ""); ms += $2 }
         /"rms_percent":/ { gsub(/[",]/, ""); rms = $2 }
         /"max_percent":/ { gsub(/[",]/, ""); max = $2 }
         END { if (rms == "" || max == "") exit 1; printf "%.6g %.6g %.6g\n", ms, rms, max }
     ' "$1"
 }
 
-# scene_copy SCENE_JSON BAKE ITERATIONS OUT: the scene with its bake and iterations replaced.
+# scene_copy SCENE_JSON BAKE ITERATIONS OUT [ACCELERATION]: the scene with its bake and iterations
+# replaced (and solver.acceleration set).
 scene_copy() {
     sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" \
-        -e "s|\"iterations\": *[0-9]*|\"iterations\": $3|" "$1" > "$4"
+        -e "s|\"iterations\": *[0-9]*|\"iterations\": $3|" \
+        -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\" }, \"output\":|" "$1" > "$4"
     grep -q "\"bake\": \"$2\"" "$4" || { echo "make_charts: could not set the bake in $4" >&2; exit 1; }
 }
 
@@ -123,9 +132,9 @@ for entry in $SCENES; do
             --log-level warn > "$dir/$ref.log"
     fi
 
-    # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME
+    # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME [ACCELERATION]
     run_one() {
-        scene_copy "$json" "$5" "$6" "$dir/$7.json"
+        scene_copy "$json" "$5" "$6" "$dir/$7.json" "${8:-none}"
         "$run" "$dir/$7.json" -o "$dir/$7" --solver "$4" --threads "$threads" --log-level warn \
             --reference "$reference" --stats "$dir/$7.stats.json" > "$dir/$7.log"
         local stats
@@ -139,18 +148,26 @@ for entry in $SCENES; do
     for it in $FULL_ITERATIONS; do
         run_one "full-space PD" iterations "$it" full "$full_bake" "$it" "full_$it"
     done
-    for method in $REDUCED_METHODS; do
-        solver="${method%%:*}"; q="${method#*:}"
-        if ! solver_available "$solver"; then
-            echo "make_charts:   $(method_label "$solver" "$q"): mat-run has no --solver $solver, left out"
-            continue
-        fi
-        for n in $HANDLES; do
-            case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
-            run_one "$(method_label "$solver" "$q")" handles "$n" "$solver" "$dir/bake_${TET_SIZE}_${n}_$q.h5" \
-                10 "${solver}_${n}_$q"
-        done
+    for it in $ANDERSON_ITERATIONS; do
+        run_one "full-space PD + Anderson" iterations "$it" full "$full_bake" "$it" "full_anderson_$it" anderson
     done
+    reduced_runs() { # METHODS ACCELERATION
+        local method solver q n
+        for method in $1; do
+            solver="${method%%:*}"; q="${method#*:}"
+            if ! solver_available "$solver"; then
+                echo "make_charts:   $(method_label "$solver" "$q"): mat-run has no --solver $solver, left out"
+                continue
+            fi
+            for n in $HANDLES; do
+                case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
+                run_one "$(method_label "$solver" "$q" "$2")" handles "$n" "$solver" \
+                    "$dir/bake_${TET_SIZE}_${n}_$q.h5" 10 "${solver}_${n}_${q}_$2" "$2"
+            done
+        done
+    }
+    reduced_runs "$REDUCED_METHODS" none
+    reduced_runs "$ANDERSON_METHODS" anderson
 done
 mv "$csv.tmp" "$csv"
 fi

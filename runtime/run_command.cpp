@@ -78,6 +78,7 @@ namespace {
             { "global: reconstruct", t.reconstruct },
             { "collision (detection)", collision_seconds },
             { "collision (contact)", t.contact },
+            { "acceleration", t.acceleration },
             { "export", export_seconds },
             { "preview (--preview)", preview_seconds },
             { "measures (stats)", measure_seconds },

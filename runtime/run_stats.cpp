@@ -31,6 +31,7 @@ namespace {
             { "solve", scale * (now.solve - before.solve) },
             { "reconstruct", scale * (now.reconstruct - before.reconstruct) },
             { "contact", scale * (now.contact - before.contact) },
+            { "acceleration", scale * (now.acceleration - before.acceleration) },
             { "export", scale * export_seconds },
         };
     }
@@ -126,7 +127,10 @@ SolverTimings total_timings(const Simulation& simulation)
         sum.solve += t.solve;
         sum.reconstruct += t.reconstruct;
         sum.contact += t.contact;
+        sum.acceleration += t.acceleration;
         sum.iterations += t.iterations;
+        sum.accelerated += t.accelerated;
+        sum.refused += t.refused;
     }
     return sum;
 }
@@ -241,7 +245,9 @@ void RunStats::record_frame(
     nlohmann::json entry { { "frame", frame }, { "time", m_simulation.time() },
         { "steps", m_simulation.steps() }, { "sleeping", m_simulation.num_sleeping() },
         { "sleeping_max", m_frame_sleeping_max },
-        { "iterations", now.iterations - m_before.iterations }, { "step_seconds", step_seconds },
+        { "iterations", now.iterations - m_before.iterations },
+        { "accelerated", now.accelerated - m_before.accelerated },
+        { "refused", now.refused - m_before.refused }, { "step_seconds", step_seconds },
         { "phase_seconds", phase_json(now, m_before, export_seconds, 1.0) },
         { "bodies", std::move(m_bodies) } };
     if (m_measure)

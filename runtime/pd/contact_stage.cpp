@@ -247,9 +247,12 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         if (bodies[b].solver != nullptr)
             bodies[b].solver->contact_response().begin_contacts();
     }
+    std::vector<Index>& terms = m_body_terms;
+    terms.assign(bodies.size(), 0);
     for (Record& record : m_records)
         for (int s = 0; s < record.num_sides; ++s) {
             Side& side = record.sides[static_cast<std::size_t>(s)];
+            terms[static_cast<std::size_t>(side.body)] += side.count;
             if (side.count > 1)
                 side.slot = m_data[static_cast<std::size_t>(side.body)].pool_used++;
         }
@@ -257,6 +260,8 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         if (bodies[b].solver == nullptr)
             continue;
         BodyData& data = m_data[b];
+        // A body with contact candidates runs its iterations plain (docs/method.md).
+        bodies[b].solver->set_contact_nodes(terms[b]);
         const Index size = bodies[b].solver->contact_response().response_size();
         if (data.pool_used > data.responses.cols() || data.responses.rows() != size)
             data.responses.resize(size, std::max<Index>(data.pool_used, 2 * data.responses.cols()));

@@ -206,6 +206,7 @@ private:
     std::vector<PlaneCollider> m_planes;
     std::vector<ContactPair> m_pairs; ///< (contact, its plane) for the Gauss-Seidel solve
     VecX m_diagonal; ///< W_cc  m
+    std::vector<Index> m_body_terms; ///< per body, this step's contact terms on it
     /// W's columns of the contacts that have pushed this step, over the rows of the contacts
     /// that have been in a working set (ContactCoupling), with room to grow.
     MatX m_columns;

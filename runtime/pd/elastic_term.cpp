@@ -640,8 +640,8 @@ void project_elastic_block(const MatBlock& f, const ProjectionParams& params, Ma
     project_elastic_block(f, params, target, warm);
 }
 
-void project_elastic_block(
-    const MatBlock& f, const ProjectionParams& params, MatBlock& target, RotationBlock& warm)
+void project_elastic_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target,
+    RotationBlock& warm, double* energy)
 {
     const double eps = params.volume_tolerance;
     const double t_lo = 1.0 - eps, t_hi = 1.0 + eps;
@@ -665,6 +665,7 @@ void project_elastic_block(
     }
     const bool any_active = num_active > 0;
     alignas(64) double k[3][W];
+    alignas(64) double e[3][W]; // w_r (s - 1)^2 + w_v (s - d)^2 + w_l (s - c)^2 per axis
     if (any_active && wv != 0.0) {
         const double cbrt_lo = std::cbrt(t_lo), cbrt_hi = std::cbrt(t_hi);
         alignas(64) double t[W], cbrt_t[W], dv[3][W];
@@ -698,6 +699,8 @@ void project_elastic_block(
                 const double di = active ? dv[i][l] : si;
                 const double ci = std::min(std::max(si, lmin), lmax);
                 k[i][l] = wr + wv * (di - si) + wl * (ci - si);
+                e[i][l] = wr * (si - 1.0) * (si - 1.0) + wv * (si - di) * (si - di)
+                    + wl * (si - ci) * (si - ci);
             }
         }
     } else {
@@ -707,8 +710,14 @@ void project_elastic_block(
                 const double si = ss[i][l];
                 const double ci = std::min(std::max(si, lmin), lmax);
                 k[i][l] = wr + wl * (ci - si);
+                e[i][l] = wr * (si - 1.0) * (si - 1.0) + wl * (si - ci) * (si - ci);
             }
     }
+    // The constraint distances (docs/method.md, "Accelerated iterations"): F - P = U diag(s - p)
+    // V^T for each projection P = U diag(p) V^T, so ||F - P||^2 = sum_i (s_i - p_i)^2.
+    if (energy != nullptr)
+        for (int l = 0; l < W; ++l)
+            energy[l] = 0.5 * (e[0][l] + e[1][l] + e[2][l]);
 
     const double wf = wv + wl;
     for (int l = 0; l < W; ++l)

@@ -96,7 +96,9 @@ void project_elastic_block(const MatBlock& f, const ProjectionParams& params, Ma
 /// V): in a PD solve, F changes little between iterations and steps, and V not at all under
 /// rigid motion, so one sweep usually converges. The sweep counts adapt per block (more sweeps
 /// while some lane has not converged), so the accuracy does not depend on the warm start.
-void project_elastic_block(
-    const MatBlock& f, const ProjectionParams& params, MatBlock& target, RotationBlock& warm);
+/// `energy` (projection_lanes doubles, or null): each lane's constraint energy per unit volume,
+/// 1/2 (w_r ||F - R||^2 + w_v ||F - P_vol||^2 + w_l ||F - P_lim||^2).
+void project_elastic_block(const MatBlock& f, const ProjectionParams& params, MatBlock& target,
+    RotationBlock& warm, double* energy = nullptr);
 
 } // namespace mat

@@ -25,8 +25,13 @@ struct SolverTimings {
     double solve = 0.0; ///< the linear solve (k x k dense or n x n CHOLMOD)
     double reconstruct = 0.0; ///< x = X + B q (reduced) or the copy out (full)
     double contact = 0.0; ///< contact detection, coupling and the contact solve
+    /// The accelerated iteration: the energy's inertia and pin terms, Anderson's extrapolation
+    /// (the local and global work of a refused iterate's redone iteration counts as theirs).
+    double acceleration = 0.0;
     long steps = 0;
     long iterations = 0;
+    long accelerated = 0; ///< extrapolated iterates the safeguard accepted
+    long refused = 0; ///< extrapolated iterates it refused (their iteration redone plain)
 };
 
 class GlobalStep {
@@ -58,6 +63,10 @@ public:
     }
     /// Writes the kept solution's positions  n x 3.
     virtual void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) = 0;
+    /// The kept solution as one flat, writable vector: q (k x 3, column-major) for a reduced
+    /// step, x (n x 3, row-major) for the full one; the accelerated iteration replaces it
+    /// (runtime/pd/anderson.hpp).
+    virtual Eigen::Map<VecX> solution() = 0;
 };
 
 /// Maps prepared nodes to columns of a dense cache, keeping columns of nodes still listed.
@@ -85,6 +94,7 @@ public:
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
+    Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_q.data(), m_q.size()); }
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
     void solve_reduced(const Eigen::Ref<const MatX>& rhs, SolverTimings& timings);
     /// Replaces the kept solution by `q`  k x 3.
@@ -131,6 +141,7 @@ public:
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
+    Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_x.data(), m_x.size()); }
 
 private:
     SparseCholesky m_cholesky;

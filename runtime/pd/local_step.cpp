@@ -282,6 +282,7 @@ LocalStep::LocalStep(const Model& model, bool exact, const std::vector<int>& ids
         if (m_node_slot_offsets[i + 1] > m_node_slot_offsets[i])
             m_touched.push_back(static_cast<int>(i));
     m_slot_sums.assign(slot_stride * static_cast<std::size_t>(next), 0.0);
+    m_chunk_energy.assign(static_cast<std::size_t>(num_chunks), 0.0);
 }
 
 void LocalStep::compute(
@@ -361,7 +362,7 @@ void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& posit
     // One block: gather F = Ds Dm^-1, project, scatter vol_e G_e^T target^T into rhs. With
     // G_e^T = E Dm^-1, E = [-1 -1 -1; I] (4 x 3), corner c + 1 gets row c of
     // vol_e Dm^-1 target^T and corner 0 minus their sum.
-    const auto run_block = [&](int b, MatBlock& f, MatBlock& target) {
+    const auto run_block = [&](int b, MatBlock& f, MatBlock& target, double& chunk_energy) {
         const Block& block = m_blocks[b];
         // Gathered corner positions, then F in SIMD over lanes.
         alignas(64) double p[4][3][lanes];
@@ -376,7 +377,11 @@ void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& posit
                     f.m[3 * r + c][l] = d0 * block.dm_inverse[c][l]
                         + d1 * block.dm_inverse[3 + c][l] + d2 * block.dm_inverse[6 + c][l];
             }
-        project_elastic_block(f, params, target, m_warm[b]);
+        alignas(64) double energy[lanes];
+        project_elastic_block(f, params, target, m_warm[b], m_with_energy ? energy : nullptr);
+        if (m_with_energy)
+            for (int l = 0; l < lanes; ++l)
+                chunk_energy += block.volume[l] * energy[l];
         // Corner r + 1's share q(r, c) = vol (Dm^-1 target^T)(r, c) = vol sum_j Dm^-1(r, j)
         // target(c, j), corner 0's minus their sum, in SIMD.
         alignas(64) double share[4][3][lanes];
@@ -401,10 +406,21 @@ void LocalStep::project(const Model& model, const Eigen::Ref<const MatX3>& posit
             for (int c = range.begin(); c != range.end(); ++c) {
                 std::fill(m_slot_sums.begin() + slot_stride * m_chunk_slots[c],
                     m_slot_sums.begin() + slot_stride * m_chunk_slots[c + 1], 0.0);
+                double chunk_energy = 0.0;
                 for (int b = m_chunk_blocks[c]; b < m_chunk_blocks[c + 1]; ++b)
-                    run_block(b, f, target);
+                    run_block(b, f, target, chunk_energy);
+                m_chunk_energy[static_cast<std::size_t>(c)] = chunk_energy;
             }
         });
+}
+
+double LocalStep::energy() const
+{
+    MAT_CHECK(m_with_energy, "local step: the energy was not requested");
+    double sum = 0.0; // chunk order: the same for any thread count
+    for (const double e : m_chunk_energy)
+        sum += e;
+    return sum;
 }
 
 std::vector<float> LocalStep::warm_start() const

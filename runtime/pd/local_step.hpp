@@ -114,6 +114,13 @@ public:
         return { base, m_slot_sums.data(), m_node_slot_offsets.data(), m_node_slots.data() };
     }
 
+    /// With `on`, project() also sums the elastic energy at the positions it projects (a few
+    /// operations per tet): sum_e vol_e 1/2 sum_c w_c ||F_e - P_c(F_e)||^2 over its tets.
+    void set_energy(bool on) { m_with_energy = on; }
+    bool energy_on() const { return m_with_energy; }
+    /// That energy at the last project() (only with set_energy(true)).
+    double energy() const;
+
     /// Number of chunks (for the benchmark's report).
     int num_chunks() const { return static_cast<int>(m_chunk_blocks.size()) - 1; }
 
@@ -145,6 +152,8 @@ private:
     std::vector<int> m_node_slots; ///< slots of each node, in chunk order
     std::vector<int> m_touched; ///< nodes with at least one slot, ascending
     std::vector<double> m_slot_sums; ///< 3 per slot
+    bool m_with_energy = false;
+    std::vector<double> m_chunk_energy; ///< #chunks: each chunk's elastic energy
     /// Per block: V of the last projection (the warm start).
     std::vector<RotationBlock> m_warm;
 };

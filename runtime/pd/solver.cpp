@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -9,6 +10,7 @@
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/pd/hyper_reduced.hpp"
+#include "runtime/pd/pd_energy.hpp"
 #include "runtime/pd/pin_term.hpp"
 
 namespace mat {
@@ -24,6 +26,9 @@ namespace {
         if (!(options.node_contact_compliance >= 0.0))
             throw_error("solver: node contact compliance {} must be non-negative",
                 options.node_contact_compliance);
+        if (options.anderson_window < 1 || options.anderson_window > anderson_max_window)
+            throw_error("solver: anderson_window {} must be in [1, {}]", options.anderson_window,
+                anderson_max_window);
         if (!(options.contact_margin >= 0.0))
             throw_error("solver: contact margin {} must be non-negative", options.contact_margin);
         for (std::size_t p = 0; p < options.planes.size(); ++p) {
@@ -33,6 +38,33 @@ namespace {
             if (!(plane.friction >= 0.0) || !std::isfinite(plane.friction))
                 throw_error("solver: plane {} friction {} must be non-negative", p, plane.friction);
         }
+    }
+
+    /// The weights of Anderson's least squares, per entry of the global step's solution: the
+    /// node masses in full space (x  n x 3 row-major: the M-norm), the diagonal of B^T M B
+    /// reduced (q  k x 3 column-major), scaled to a mean of 1. Unweighted, the coordinates of
+    /// quadratic handles (monomials of the rest positions, small) count for more than they move.
+    VecX acceleration_weights(const Model& model, bool reduced)
+    {
+        const VecX& masses = model.masses();
+        const Index n = model.num_nodes();
+        VecX weights;
+        if (!reduced) {
+            weights.resize(3 * n);
+            for (Index i = 0; i < n; ++i)
+                weights.segment<3>(3 * i).setConstant(masses(i));
+        } else {
+            const Index k = model.num_columns();
+            VecX diagonal = VecX::Zero(k);
+            for (Index i = 0; i < n; ++i)
+                for (SparseRowMatrix::InnerIterator it(model.basis(), i); it; ++it)
+                    diagonal(it.index()) += masses(i) * it.value() * it.value();
+            const double floor = 1e-12 * std::max(diagonal.maxCoeff(), 1e-300);
+            weights.resize(3 * k);
+            for (int c = 0; c < 3; ++c)
+                weights.segment(c * k, k) = diagonal.cwiseMax(floor);
+        }
+        return weights / weights.mean();
     }
 
 } // namespace
@@ -46,6 +78,15 @@ SolverKind parse_solver_kind(const std::string& name)
     if (name == "hyper")
         return SolverKind::hyper_reduced;
     throw_error("--solver: '{}' is not a solver (expected semi, full or hyper)", name);
+}
+
+Acceleration parse_acceleration(const std::string& name)
+{
+    if (name == "none")
+        return Acceleration::none;
+    if (name == "anderson")
+        return Acceleration::anderson;
+    throw_error("acceleration: '{}' is not one (expected none or anderson)", name);
 }
 
 PdSolver semi_reduced_solver(const Model& model, const SolverOptions& options)
@@ -108,6 +149,13 @@ void EveryTetLocalStage::iterate(const Model& model, int /*iteration*/,
     m_local.assemble(model, positions, base, m_rhs);
     timings.local += timer.seconds();
     global.solve(m_rhs, timings);
+}
+
+double EveryTetLocalStage::energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
+    const Eigen::Ref<const MatX3>& inertia, const Eigen::Ref<const MatX3>& pin_targets)
+{
+    return inertia_energy(model, positions, inertia) + pin_energy(model, positions, pin_targets)
+        + m_local.energy();
 }
 
 PdSolver::PdSolver(const Model& model, const SolverOptions& options,
@@ -192,16 +240,88 @@ void PdSolver::begin_step(const State& in, State& out)
     add_pin_term(model, m_pin_targets, m_rhs_base);
     m_global->add_constant_terms(m_rhs_base);
     m_timings.rhs += timer.seconds();
+    m_contact_nodes = 0; // the contact stage's begin_step sets it
 }
 
 void PdSolver::iterate(int iteration)
 {
     MAT_CHECK(m_out != nullptr, "solver: iterate() outside a step");
+    if (iteration == 0)
+        begin_acceleration();
     m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
+    if (m_accelerating)
+        safeguard(iteration);
+}
+
+void PdSolver::begin_acceleration()
+{
+    // Only in steps without contact candidates: the energy does not see the contact forces, and
+    // an extrapolation of contact-corrected iterates can leave the contact set (docs/method.md,
+    // "Accelerated iterations"). Two iterations or fewer leave nothing to extrapolate.
+    m_accelerating = m_options.acceleration == Acceleration::anderson && m_contact_nodes == 0
+        && m_options.iterations > 2;
+    m_extrapolated = false;
+    m_local->set_energy(m_accelerating && m_local->descends());
+    if (!m_accelerating)
+        return;
+    const Eigen::Map<VecX> solution = m_global->solution();
+    if (m_anderson_weights.size() != solution.size())
+        m_anderson_weights
+            = acceleration_weights(*m_model, m_global->reduced_coordinates() != nullptr);
+    m_anderson.configure(solution.size(), m_options.anderson_window, m_anderson_weights);
+    // Full space iterates positions, and s is the first of them; a reduced one starts from its
+    // first solve (s is outside the subspace).
+    if (m_global->reduced_coordinates() == nullptr)
+        m_anderson.start(m_inertia.data());
+}
+
+double PdSolver::safeguard_measure()
+{
+    if (m_local->descends())
+        return m_local->energy(*m_model, m_out->positions, m_inertia, m_pin_targets);
+    // |G(u) - u|_W of the iterate u the solve read (none before the history starts: s is
+    // outside the subspace).
+    if (!m_anderson.started())
+        return std::numeric_limits<double>::infinity();
+    return m_anderson.residual_norm(m_global->solution().data());
+}
+
+void PdSolver::safeguard(int iteration)
+{
+    Timer timer;
+    double measure = safeguard_measure();
+    if (m_extrapolated && !(measure <= m_report.energy)) {
+        // Refused: back to the plain iterate, the history cleared, and the iteration again.
+        Eigen::Map<VecX> solution = m_global->solution();
+        m_anderson.fall_back(solution.data());
+        if (m_local->reads_iterate())
+            m_global->positions(m_out->positions, m_timings);
+        m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
+        measure = safeguard_measure();
+        ++m_report.rejected;
+        ++m_timings.refused;
+    } else if (m_extrapolated) {
+        ++m_report.accelerated;
+        ++m_timings.accelerated;
+    }
+    m_report.energy = measure;
+    m_extrapolated = false;
+    m_timings.acceleration += timer.seconds();
 }
 
 void PdSolver::finish_iteration(int iteration)
 {
+    if (m_accelerating && iteration + 1 < m_options.iterations) {
+        // The next iterate from this one's solve (after the contact stage, which found no
+        // candidates): the last solve is kept plain, so the step ends on an accepted iterate.
+        Timer timer;
+        Eigen::Map<VecX> solution = m_global->solution();
+        if (!m_anderson.started())
+            m_anderson.start(solution.data());
+        else
+            m_extrapolated = m_anderson.advance(solution.data());
+        m_timings.acceleration += timer.seconds();
+    }
     if (m_local->reads_iterate() || iteration + 1 == m_options.iterations)
         m_global->positions(m_out->positions, m_timings);
     ++m_timings.iterations;

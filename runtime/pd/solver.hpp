@@ -19,6 +19,10 @@
 //     contact stage on the global steps' results: exact Signorini-Coulomb conditions for every
 //     contact of every body, inside the iteration (docs/method.md, "Contact")
 //   v_{n+1} = (1 - damping) (x - x_n) / h
+// With `acceleration` anderson, each iteration's global solution is extrapolated from the last
+// ones (Anderson acceleration, runtime/pd/anderson.hpp) and an extrapolation that raises the PD
+// energy (hyper-reduced: the fixed-point residual) is replaced by the plain iterate; steps with
+// contact candidates run plain (docs/method.md, "Accelerated iterations").
 // Damping: `damping` in [0, 1) scales the velocity at the end of each step (0 = none). It is a
 // simple numerical damping (it removes the fraction `damping` of the velocity per step, so its
 // effect depends on dt), not Rayleigh damping. Implicit Euler itself dissipates energy too.
@@ -33,7 +37,9 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "common/error.hpp"
 #include "runtime/model.hpp"
+#include "runtime/pd/anderson.hpp"
 #include "runtime/pd/contact.hpp"
 #include "runtime/pd/contact_stage.hpp"
 #include "runtime/pd/global_step.hpp"
@@ -50,6 +56,13 @@ enum class SolverKind { semi_reduced, full, hyper_reduced };
 /// "semi", "full" or "hyper" -> SolverKind; throws mat::Error otherwise.
 SolverKind parse_solver_kind(const std::string& name);
 
+/// The iteration within a step: plain local/global, or Anderson-accelerated with the energy
+/// safeguard (runtime/pd/anderson.hpp; docs/method.md, "Accelerated iterations").
+enum class Acceleration { none, anderson };
+
+/// "none" or "anderson" -> Acceleration; throws mat::Error otherwise.
+Acceleration parse_acceleration(const std::string& name);
+
 struct SolverOptions {
     int iterations = 10; ///< local/global iterations per step, >= 1
     Vec3 gravity = Vec3(0.0, -9.81, 0.0); ///< external acceleration, m/s^2
@@ -65,6 +78,8 @@ struct SolverOptions {
     /// without it, a reduced body pressed by more contacts than it has degrees of freedom takes
     /// unbounded forces (strains of 2 to 10 on stacked 2-handle capsules). Ground planes stay hard.
     double node_contact_compliance = 0.1;
+    Acceleration acceleration = Acceleration::none;
+    int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
 };
 
 /// What the last step did.
@@ -76,6 +91,13 @@ struct StepReport {
     /// The contact forces on the body over the step times the step (N s): what the contacts
     /// added to its momentum.
     Vec3 contact_impulse = Vec3::Zero();
+    /// With acceleration on and no contact candidates: the safeguard's measure of the last
+    /// accepted iterate (set by each iterate(): its PD energy, J, or for the hyper-reduced
+    /// solver its fixed-point residual), the extrapolated iterates accepted and those the
+    /// safeguard refused (their iteration then restarted from the plain iterate).
+    double energy = 0.0;
+    int accelerated = 0;
+    int rejected = 0;
 };
 
 /// One iteration's local half and the global solve it feeds: the local step's projections over
@@ -95,6 +117,19 @@ public:
     virtual bool reads_iterate() const = 0;
     /// How many tets the local step projects.
     virtual Index num_tets() const = 0;
+    /// Whether an iteration never raises the PD energy (runtime/pd/pd_energy.hpp): then the
+    /// accelerated iteration's safeguard is that energy, else the fixed-point residual.
+    virtual bool descends() const { return false; }
+    /// Whether iterate() also evaluates the PD energy of the iterate it projects (a stage that
+    /// descends).
+    virtual void set_energy(bool /*on*/) { }
+    /// That energy at the last iterate() (with set_energy(true)): `positions` the iterate it read,
+    /// `inertia` s, `pin_targets` #pinned x 3.
+    virtual double energy(const Model& /*model*/, const Eigen::Ref<const MatX3>& /*positions*/,
+        const Eigen::Ref<const MatX3>& /*inertia*/, const Eigen::Ref<const MatX3>& /*pin_targets*/)
+    {
+        throw_error("solver: this local stage has no energy");
+    }
     /// The local step (its warm start goes into checkpoints).
     virtual LocalStep& local_step() = 0;
     const LocalStep& local_step() const { return const_cast<LocalStage*>(this)->local_step(); }
@@ -108,6 +143,11 @@ public:
         const Eigen::Ref<const MatX3>& base, GlobalStep& global, SolverTimings& timings) override;
     bool reads_iterate() const override { return true; }
     Index num_tets() const override { return m_num_tets; }
+    bool descends() const override { return true; }
+    void set_energy(bool on) override { m_local.set_energy(on); }
+    double energy(const Model& model, const Eigen::Ref<const MatX3>& positions,
+        const Eigen::Ref<const MatX3>& inertia,
+        const Eigen::Ref<const MatX3>& pin_targets) override;
     LocalStep& local_step() override { return m_local; }
 
 private:
@@ -166,6 +206,9 @@ public:
     const MatX3& step_positions() const { return m_out->positions; }
     StepReport& report() { return m_report; }
     void add_contact_seconds(double seconds) { m_timings.contact += seconds; }
+    /// The contact stage's candidate nodes of this body in the step (set at its begin_step):
+    /// the accelerated iteration runs only in steps without any.
+    void set_contact_nodes(Index count) { m_contact_nodes = count; }
 
 private:
     const Model* m_model;
@@ -182,6 +225,20 @@ private:
     /// The contact stage of step() (this body alone), made on its first use.
     std::unique_ptr<ContactStage> m_own_contacts;
     std::vector<ContactBodyState> m_own_state;
+    // The accelerated iteration (docs/method.md, "Accelerated iterations").
+    Index m_contact_nodes = 0;
+    bool m_accelerating = false; ///< in this step
+    bool m_extrapolated = false; ///< the iterate the next iterate() reads is extrapolated
+    AndersonAcceleration m_anderson;
+    VecX m_anderson_weights; ///< the least squares' weights (made on the first accelerated step)
+
+    /// At iteration 0: whether this step accelerates, and its start.
+    void begin_acceleration();
+    /// After iterate()'s solve: the safeguard (redo the iteration from the plain iterate if the
+    /// extrapolated one raised the energy, or the residual).
+    void safeguard(int iteration);
+    /// The safeguard's measure of the iterate the last iterate() read.
+    double safeguard_measure();
 };
 
 // The three modes as compositions (see the file comment). Throw mat::Error if a part cannot be

@@ -30,6 +30,8 @@ struct TimeSettings {
 
 /// The local step's decomposition (SolverOptions::exact_projections).
 enum class ProjectionMode { fast, exact };
+/// The PD iteration within a step (SolverOptions::acceleration).
+enum class AccelerationMode { none, anderson };
 /// Collision between objects: medial bounds enlarged to enclose the deformed surface, moved
 /// only, or none (runtime/collision/collision_world.hpp).
 enum class CollisionMode { bounded, lazy, off };
@@ -42,6 +44,8 @@ struct SolverSettings {
     double damping = 0.0; ///< per-step velocity scaling in [0, 1)
     double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
     ProjectionMode projections = ProjectionMode::fast; ///< "fast" or "exact"
+    AccelerationMode acceleration = AccelerationMode::none; ///< "none" or "anderson"
+    int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
     bool self_collision = false; ///< "on" or "off"

@@ -107,6 +107,10 @@ namespace {
         options.gravity = scene.gravity;
         options.damping = scene.solver.damping;
         options.exact_projections = scene.solver.projections == ProjectionMode::exact;
+        options.acceleration = scene.solver.acceleration == AccelerationMode::anderson
+            ? Acceleration::anderson
+            : Acceleration::none;
+        options.anderson_window = scene.solver.anderson_window;
         options.contact_margin = scene.solver.contact_margin;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(

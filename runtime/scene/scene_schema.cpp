@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common/error.hpp"
+#include "runtime/pd/anderson.hpp"
 
 namespace mat::scene_schema {
 
@@ -216,6 +217,19 @@ namespace {
                 .set_doc("the local step's SVD: fast (float eigenvectors, exact at rest and under "
                          "rigid motion, about 1e-7 of the size off the exact trajectory) or exact "
                          "(double precision throughout, slower)"),
+            enum_key(
+                S::solver, "acceleration", &SolverSettings::acceleration, { "none", "anderson" })
+                .set_default("none")
+                .set_doc("the PD iterations of a step: plain, or Anderson-accelerated with a "
+                         "safeguard (an extrapolated iterate that raises the PD energy, or with "
+                         "--solver hyper the fixed-point residual, is replaced by the plain one); "
+                         "a body's steps with contact candidates run plain (docs/method.md, "
+                         "\"Accelerated iterations\")"),
+            value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)
+                .set_default(5)
+                .at_least(1)
+                .at_most(anderson_max_window)
+                .set_doc("iterate differences Anderson acceleration keeps (its window m)"),
             value_key(S::solver, "contact_margin", T::number, &SolverSettings::contact_margin)
                 .set_default(0.01)
                 .at_least(0)

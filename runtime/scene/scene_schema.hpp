@@ -111,6 +111,7 @@ struct KeySpec {
     KeySpec& above(double bound) { return set_lower(bound, true); }
     KeySpec& at_least(double bound) { return set_lower(bound, false); }
     KeySpec& below(double bound) { return set_upper(bound, true); }
+    KeySpec& at_most(double bound) { return set_upper(bound, false); }
     KeySpec& set_lower(double bound, bool open)
     {
         limits.lower = bound;

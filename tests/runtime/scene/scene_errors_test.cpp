@@ -52,6 +52,10 @@ namespace {
             "scene.json: time.frames: 0 is out of range: must be >= 1");
         EXPECT_EQ(error_of(with_top(R"("solver": {"damping": 1})")),
             "scene.json: solver.damping: 1 is out of range [0, 1)");
+        EXPECT_EQ(error_of(with_top(R"("solver": {"anderson_window": 17})")),
+            "scene.json: solver.anderson_window: 17 is out of range [1, 16]");
+        EXPECT_EQ(error_of(with_top(R"("solver": {"anderson_window": 0})")),
+            "scene.json: solver.anderson_window: 0 is out of range [1, 16]");
         EXPECT_EQ(error_of(with_object(R"("material": {"density": -2})")),
             "scene.json: objects[0].material.density: -2 is out of range: must be > 0");
         EXPECT_EQ(error_of(with_object(R"("pins": [{"nodes": [0, -1]}])")),
@@ -114,6 +118,8 @@ namespace {
             "scene.json: output.fields[1]: \"velocity\" is listed twice");
         EXPECT_EQ(error_of(with_top(R"("colliders": [{"type": "sphere"}])")),
             "scene.json: colliders[0].type: \"sphere\" is not one of plane");
+        EXPECT_EQ(error_of(with_top(R"("solver": {"acceleration": "chebyshev"})")),
+            "scene.json: solver.acceleration: \"chebyshev\" is not one of none, anderson");
         EXPECT_EQ(error_of("[1, 2]"),
             "scene.json: expected a JSON object at the top level, got a list of 2 elements");
     }
