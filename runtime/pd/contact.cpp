@@ -93,11 +93,12 @@ namespace {
             return forces.row(c).squaredNorm() > 0.0 || !(gap_of(c) > 0.0);
         }
 
-        /// Contact c's new force (Signorini normal, Coulomb tangent), and the working set's
-        /// positions moved by the change (`rows`: their rows in the coupling's columns);
-        /// returns how far c moves (0 if its force is unchanged).
-        double project(Index c, const std::vector<Index>& working, const std::vector<int>& rows)
+        /// Working member k's new force (Signorini normal, Coulomb tangent), and the working
+        /// set's positions (kept in `scratch`, contiguous) moved by the change; returns how far
+        /// it moves (0 if its force is unchanged).
+        double project(std::size_t k, ContactScratch& scratch)
         {
+            const Index c = scratch.working[k];
             const PlaneCollider& plane = planes[pairs[c].plane];
             const double coupling_cc = diagonal(c);
             if (!(coupling_cc > 0.0))
@@ -107,7 +108,9 @@ namespace {
             const double eps = plane.compliance * coupling_cc;
             const double w = coupling_cc + eps;
             const Vec3 n = plane.normal;
-            const Vec3 x = positions.row(c).transpose() + eps * forces.row(c).transpose();
+            const Index kk = static_cast<Index>(k);
+            const Vec3 x
+                = scratch.working_positions.row(kk).transpose() + eps * forces.row(c).transpose();
             const Vec3 f = forces.row(c).transpose();
             const double f_n = n.dot(f);
             const Vec3 f_t = f - f_n * n;
@@ -129,18 +132,25 @@ namespace {
             if (delta.squaredNorm() == 0.0)
                 return 0.0;
             forces.row(c) = (f_n_new * n + f_t_new).transpose();
-            const double* column = coupling.column(c);
-            for (std::size_t j = 0; j < working.size(); ++j)
-                positions.row(working[j]) += column[rows[j]] * delta.transpose();
+            const Index size = static_cast<Index>(scratch.working.size());
+            if (!scratch.ready[k]) {
+                const double* column = coupling.column(c);
+                for (Index j = 0; j < size; ++j)
+                    scratch.working_columns(j, kk)
+                        = column[scratch.rows[static_cast<std::size_t>(j)]];
+                scratch.ready[k] = 1;
+            }
+            scratch.working_positions.topRows(size).noalias()
+                += scratch.working_columns.col(kk).head(size) * delta.transpose();
             return coupling_cc * delta.norm();
         }
 
         /// One sweep over the working set, in order: the largest position change.
-        double sweep(const std::vector<Index>& working, const std::vector<int>& rows)
+        double sweep(ContactScratch& scratch)
         {
             double change = 0.0;
-            for (const Index c : working)
-                change = std::max(change, project(c, working, rows));
+            for (std::size_t k = 0; k < scratch.working.size(); ++k)
+                change = std::max(change, project(k, scratch));
             return change;
         }
 
@@ -212,8 +222,22 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
             if (member[static_cast<std::size_t>(c)])
                 working.push_back(c);
         coupling.cover_all(working, rows);
+        // The sweeps on contiguous copies of the working set's positions and columns.
+        const Index size = static_cast<Index>(working.size());
+        if (scratch.working_positions.rows() < size)
+            scratch.working_positions.resize(
+                std::max(size, 2 * scratch.working_positions.rows()), 3);
+        for (Index k = 0; k < size; ++k)
+            scratch.working_positions.row(k) = positions.row(working[static_cast<std::size_t>(k)]);
+        if (scratch.working_columns.rows() < size)
+            scratch.working_columns.resize(
+                std::max(size, 2 * scratch.working_columns.rows()), scratch.working_columns.cols());
+        if (scratch.working_columns.cols() < size)
+            scratch.working_columns.resize(
+                scratch.working_columns.rows(), std::max(size, 2 * scratch.working_columns.cols()));
+        scratch.ready.assign(working.size(), 0);
         for (; sweep < settings.max_sweeps; ++sweep) {
-            const double change = solve.sweep(working, rows);
+            const double change = solve.sweep(scratch);
             result.sweeps = sweep + 1;
             result.last_change = change;
             if (change <= settings.tolerance) {
@@ -221,6 +245,8 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 break;
             }
         }
+        for (Index k = 0; k < size; ++k)
+            positions.row(working[static_cast<std::size_t>(k)]) = scratch.working_positions.row(k);
         // Every other position from the forces, then the contacts that have come into their
         // plane.
         coupling.displace(free_positions, forces, &member, positions);

@@ -74,6 +74,11 @@ struct ContactScratch {
     std::vector<Index> working; ///< the working set, increasing
     std::vector<int> rows; ///< the working set's rows in the coupling's columns
     std::vector<char> member; ///< per contact, whether it is in the working set
+    /// During the sweeps over one working set: its positions, and the columns of D over it of
+    /// the members whose force has changed (ready), contiguous for the sweeps' updates.
+    MatX3 working_positions;
+    MatX working_columns;
+    std::vector<char> ready;
 };
 
 /// The coupling D between the contacts' points (m contacts) as the solve uses it; D is symmetric
