@@ -167,6 +167,7 @@ private:
         /// The rows of the response space its sides' directions read, increasing (empty: all;
         /// a full-space body's directions read only the contacts' nodes).
         std::vector<int> read_rows;
+        std::vector<char> read_mark; ///< find_read_rows' scratch, per response row
     };
 
     void init_body(int b, PdSolver& solver);

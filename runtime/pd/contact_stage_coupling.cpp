@@ -116,26 +116,36 @@ const double* ContactStage::column(Index d)
     return m_columns.col(col).data();
 }
 
+// Marks instead of a sort: one pass over the directions and one over each body's response rows.
 void ContactStage::find_read_rows()
 {
-    for (std::size_t b = 0; b < m_data.size(); ++b)
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
         m_data[b].read_rows.clear();
+        if (m_solvers[b] != nullptr)
+            m_data[b].read_mark.assign(
+                static_cast<std::size_t>(m_solvers[b]->contact_response().response_size()), 0);
+    }
     for (const Record& record : m_records)
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
-            std::vector<int>& rows = m_data[static_cast<std::size_t>(side.body)].read_rows;
-            rows.insert(rows.end(), m_dir_index.begin() + side.dir_first,
-                m_dir_index.begin() + side.dir_first + side.dir_count);
+            std::vector<char>& mark = m_data[static_cast<std::size_t>(side.body)].read_mark;
+            for (int i = side.dir_first; i < side.dir_first + side.dir_count; ++i)
+                mark[static_cast<std::size_t>(m_dir_index[static_cast<std::size_t>(i)])] = 1;
         }
     for (std::size_t b = 0; b < m_data.size(); ++b) {
         if (m_solvers[b] == nullptr)
             continue;
-        std::vector<int>& rows = m_data[b].read_rows;
-        std::sort(rows.begin(), rows.end());
-        rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+        BodyData& data = m_data[b];
+        const Index size = static_cast<Index>(data.read_mark.size());
+        Index count = 0;
+        for (const char mark : data.read_mark)
+            count += mark;
         // Reading most rows: sum them all (contiguous).
-        if (2 * static_cast<Index>(rows.size()) > m_solvers[b]->contact_response().response_size())
-            rows.clear();
+        if (2 * count > size)
+            continue;
+        for (Index r = 0; r < size; ++r)
+            if (data.read_mark[static_cast<std::size_t>(r)])
+                data.read_rows.push_back(static_cast<int>(r));
     }
 }
 
