@@ -57,6 +57,7 @@ struct SolverSettings {
     int sleep_steps = 0; ///< consecutive slow steps before an object sleeps
     int hyper_samples = 0; ///< tets in the hyper-reduced local step (0: automatic)
     double reduced_pin_stiffness = 0.0; ///< ModelOptions::pin_weight_scale of reduced bodies
+    double full_pin_stiffness = 0.0; ///< ModelOptions::pin_weight_scale of full-space bodies
 };
 
 struct MaterialSettings {

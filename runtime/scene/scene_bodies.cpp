@@ -70,9 +70,12 @@ namespace {
         options.time_step = scene.time.dt;
         options.volume_tolerance = scene.solver.volume_tolerance;
         // Reduced bodies pin softly (solver.reduced_pin_stiffness): stiff pins on every pinned node
-        // freeze each handle whose weights reach into the pinned region (locking).
-        if (solver_kind != SolverKind::full)
-            options.pin_weight_scale = scene.solver.reduced_pin_stiffness;
+        // freeze each handle whose weights reach into the pinned region (locking). Full-space
+        // bodies pin stiffly (solver.full_pin_stiffness); a soft value there measures what the
+        // soft pin alone costs (docs/benchmarks.md, "What limits the error").
+        options.pin_weight_scale = solver_kind == SolverKind::full
+            ? scene.solver.full_pin_stiffness
+            : scene.solver.reduced_pin_stiffness;
         std::vector<char> taken(rest.rows(), 0);
         for (std::size_t p = 0; p < object.pins.size(); ++p) {
             PinGroup group;

@@ -282,7 +282,14 @@ namespace {
                          "diagonal entry of the system matrix (full-space pins use 1e8): stiff "
                          "pins on a reduced body freeze every handle whose weights reach into "
                          "the pinned region; at 1 a stiff cantilever's error against full-space "
-                         "PD is 1.8% RMS instead of 5.3% (16 handles)")
+                         "PD is 1.8% RMS instead of 5.3% (16 handles)"),
+            value_key(
+                S::solver, "full_pin_stiffness", T::number, &SolverSettings::full_pin_stiffness)
+                .set_default(1e8)
+                .above(0)
+                .set_doc("pin weight of full-space bodies (--solver full), relative to the "
+                         "largest diagonal entry of the system matrix: stiff by default; set to "
+                         "reduced_pin_stiffness to measure what soft pins alone cost")
         };
     }
 

@@ -99,6 +99,8 @@ namespace {
         EXPECT_EQ(scene.solver.damping, 0.0);
         EXPECT_EQ(scene.solver.volume_tolerance, 0.01);
         EXPECT_EQ(scene.solver.contact_margin, 0.01);
+        EXPECT_EQ(scene.solver.reduced_pin_stiffness, 1.0);
+        EXPECT_EQ(scene.solver.full_pin_stiffness, 1e8);
         ASSERT_EQ(scene.objects.size(), 1u);
         const ObjectSettings& object = scene.objects[0];
         EXPECT_EQ(object.name, "object0");
@@ -123,7 +125,8 @@ namespace {
         const Scene scene = parse(R"({
           "time": {"dt": 0.01, "frames": 7, "iterations": 4},
           "gravity": [1, 2, 3],
-          "solver": {"damping": 0.1, "volume_tolerance": 0.05, "contact_margin": 0.02},
+          "solver": {"damping": 0.1, "volume_tolerance": 0.05, "contact_margin": 0.02,
+                     "reduced_pin_stiffness": 3, "full_pin_stiffness": 4},
           "objects": [
             {"bake": "a.h5", "material": {"strain_limits": [0.9, 1.1]}},
             {"name": "second", "bake": "../b/b.h5", "position": [4, 5, 6],
@@ -149,6 +152,8 @@ namespace {
         EXPECT_EQ(scene.solver.damping, 0.1);
         EXPECT_EQ(scene.solver.volume_tolerance, 0.05);
         EXPECT_EQ(scene.solver.contact_margin, 0.02);
+        EXPECT_EQ(scene.solver.reduced_pin_stiffness, 3.0);
+        EXPECT_EQ(scene.solver.full_pin_stiffness, 4.0);
         ASSERT_EQ(scene.objects.size(), 2u);
         EXPECT_EQ(scene.objects[0].name, "object0");
         ASSERT_TRUE(scene.objects[0].material.strain_limits);
