@@ -11,7 +11,8 @@
 #                the counts of WEIGHT_HANDLES, run at the scene's iterations and converged;
 #   pins:        the pinned scenes with solver.reduced_pin_stiffness at each of PIN_SCALES
 #                (semi-reduced, PIN_HANDLES handles) and solver.full_pin_stiffness at each of them
-#                (full-space), at the scene's iterations and converged.
+#                (full-space), at the scene's iterations and converged; and each converged
+#                reduced run against full-space PD converged with the same pin stiffness.
 # Each run's RMS and max surface distance to the reference (% of the bbox diagonal, max over
 # frames) and solver ms per step (one thread, one run: indicative, not a benchmark) go to
 # WORK/limits.csv, and the tables to WORK/limits.md. About 10 min on one core.
@@ -19,8 +20,13 @@
 #   bash tests/bench/error_limits.sh build
 #   LIMITS_WORK=/tmp/limits bash tests/bench/error_limits.sh build   (default BUILD/error_limits)
 #   LIMITS_ONLY_TABLES=1 bash tests/bench/error_limits.sh build      tables from WORK/limits.csv
+#   bash tests/bench/error_limits.sh build speed   the cost of weights per node instead: bake
+#       seconds and ms per step (scene's iterations) of WEIGHT_SPEED_HANDLES quadratic and linear
+#       handles at each of WEIGHTS_PER_NODE, ROUNDS rounds alternated, medians (one thread),
+#       into WORK/weights_cost.md (about 4 min)
 # Environment overrides: MAT_BAKE, MAT_RUN, SCENES, HANDLES, ITERATIONS, CONVERGED,
-# REF_ITERATIONS, WEIGHT_HANDLES, WEIGHTS_PER_NODE, PIN_HANDLES, PIN_SCALES.
+# REF_ITERATIONS, WEIGHT_HANDLES, WEIGHTS_PER_NODE, PIN_HANDLES, PIN_SCALES, ROUNDS,
+# WEIGHT_SPEED_HANDLES.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="$(cd "${1:-$root/build}" && pwd)"
@@ -37,7 +43,7 @@ REF_ITERATIONS="${REF_ITERATIONS:-400}"
 HANDLES="${HANDLES:-4 8 16 24}"
 ITERATIONS="${ITERATIONS:-10 50 200}"
 CONVERGED="${CONVERGED:-200}" # the iteration count taken as converged
-WEIGHT_HANDLES="${WEIGHT_HANDLES:-16 24}"
+WEIGHT_HANDLES="${WEIGHT_HANDLES-16 24}" # empty: no weights study
 WEIGHTS_PER_NODE="${WEIGHTS_PER_NODE:-8 16 all}"
 PIN_HANDLES="${PIN_HANDLES:-24}"
 PIN_SCALES="${PIN_SCALES-0.1 1 100 1e4 1e8}" # empty: no pin study
@@ -90,8 +96,46 @@ bake_one() {
     cat "$5.seconds"
 }
 
-csv="$work/limits.csv"
 mkdir -p "$work"
+work="$(cd "$work" && pwd)" # scenes name their bakes by absolute paths
+if [ "${2:-}" = speed ]; then
+    rounds="${ROUNDS:-5}"
+    n="${WEIGHT_SPEED_HANDLES:-24}"
+    out="$work/weights_cost.md"
+    median() { sort -g "$1" | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+    echo "| scene | method | handles | weights per node | bake s | ms/step $scene_iterations it |" > "$out.tmp"
+    echo "| --- | --- | ---: | ---: | ---: | ---: |" >> "$out.tmp"
+    for entry in $SCENES; do
+        scene="${entry%%:*}"; surface="$root/${entry#*:}"
+        json="$root/docs/charts/$scene.json"
+        dir="$work/speed/$scene"
+        mkdir -p "$dir"
+        for q in all none; do
+            method=linear; [ "$q" = all ] && method=quadratic
+            rm -f "$dir"/*.samples
+            for ((r = 0; r < rounds; ++r)); do
+                for w in $WEIGHTS_PER_NODE; do
+                    [ "$w" = all ] && w="$n"
+                    rm -f "$dir/bake_$w.h5"
+                    bake_one "$surface" "$n" "$q" "$w" "$dir/bake_$w.h5" >> "$dir/bake_$w.samples"
+                    with_settings "$json" "$dir/bake_$w.h5" "$scene_iterations" "" "$dir/run_$w.json"
+                    "$run" "$dir/run_$w.json" -o "$dir/run_$w" --threads 1 --log-level warn \
+                        --stats "$dir/run_$w.stats.json" > "$dir/run_$w.log"
+                    set -- $(stats_of "$dir/run_$w.stats.json")
+                    echo "$1" >> "$dir/ms_$w.samples"
+                done
+            done
+            for w in $WEIGHTS_PER_NODE; do
+                label="$w"; [ "$w" = all ] && w="$n" && label=all
+                echo "| $scene | $method | $n | $label | $(median "$dir/bake_$w.samples") | $(median "$dir/ms_$w.samples") |" >> "$out.tmp"
+            done
+        done
+    done
+    mv "$out.tmp" "$out"
+    echo "error_limits: wrote $out (medians of $rounds alternated rounds)"
+    exit 0
+fi
+csv="$work/limits.csv"
 if [ -z "${LIMITS_ONLY_TABLES:-}" ]; then
     echo "scene,study,method,handles,weights_per_node,pin_scale,iterations,bake_s,ms_per_step,rms_percent,max_percent,drop_j" > "$csv.tmp"
     for entry in $SCENES; do
@@ -184,6 +228,12 @@ if [ -z "${LIMITS_ONLY_TABLES:-}" ]; then
                             record pins "$method" "$n" 8 "$s" "$it" - semi "$dir/bake_${n}_${q}_w8.h5" \
                                 "\"reduced_pin_stiffness\": $s" "semi_${n}_${q}_pin${s}_$it"
                         done
+                        # The subspace's own error with the pins matched: against full-space
+                        # PD converged with the same pin stiffness.
+                        reference="$dir/full_pin${s}_$CONVERGED/trajectory.h5" \
+                            record pins_matched "$method" "$n" 8 "$s" "$CONVERGED" - semi \
+                            "$dir/bake_${n}_${q}_w8.h5" "\"reduced_pin_stiffness\": $s" \
+                            "semi_${n}_${q}_pin${s}_matched"
                     done
                 done
             done
@@ -215,6 +265,7 @@ awk -F, -v its="$ITERATIONS $check" -v conv="$CONVERGED" -v fast="$scene_iterati
         h["ms"] = "ms/step " fast " it"; h["rms_fast"] = "RMS " fast " it"
         h["rms_conv"] = "RMS " conv " it"; h["max_conv"] = "max " conv " it"
         h["drop_conv"] = "drop ratio " conv " it"
+        h["matched"] = "RMS " conv " it against full-space, same pin"
         for (i = 1; i <= n; ++i) printf "| %s ", h[c[i]]
         printf "|\n"
         for (i = 1; i <= n; ++i) printf "| %s ", (i <= 2 ? "---" : "---:")
@@ -228,6 +279,7 @@ awk -F, -v its="$ITERATIONS $check" -v conv="$CONVERGED" -v fast="$scene_iterati
                 v["scene"] = sc; v["method"] = name(f[1]); v["handles"] = f[2]; v["weights"] = f[3]
                 v["pin"] = f[4]; v["bake"] = bake[kf]; v["ms"] = ms[kf]; v["rms_fast"] = cell(kf)
                 v["rms_conv"] = cell(kc); v["max_conv"] = maxof(kc); v["drop_conv"] = ratio(kc, sc)
+                v["matched"] = cell(sc SUBSEP study "_matched" SUBSEP order[sc, study, r] SUBSEP conv)
                 for (i = 1; i <= n; ++i) printf "| %s ", v[c[i]]
                 printf "|\n"
             }
@@ -261,7 +313,7 @@ awk -F, -v its="$ITERATIONS $check" -v conv="$CONVERGED" -v fast="$scene_iterati
         print "\n### Pin stiffness\n"
         print "Full-space rows: solver.full_pin_stiffness; reduced rows: solver.reduced_pin_stiffness (x the largest"
         print "diagonal entry of the system matrix). The reference pins at 1e8.\n"
-        table("pins", "scene method handles pin rms_fast rms_conv max_conv drop_conv")
+        table("pins", "scene method handles pin rms_fast rms_conv max_conv drop_conv matched")
     }
 ' "$csv" > "$tables"
 echo "error_limits: wrote $csv and $tables"
