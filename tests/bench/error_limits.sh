@@ -223,6 +223,7 @@ if [ -z "${LIMITS_ONLY_TABLES:-}" ]; then
             for q in none all; do
                 method=linear; [ "$q" = all ] && method=quadratic
                 for n in $PIN_HANDLES; do
+                    bake_one "$surface" "$n" "$q" 8 "$dir/bake_${n}_${q}_w8.h5" > /dev/null
                     for s in $PIN_SCALES; do
                         for it in $scene_iterations $CONVERGED; do
                             record pins "$method" "$n" 8 "$s" "$it" - semi "$dir/bake_${n}_${q}_w8.h5" \
