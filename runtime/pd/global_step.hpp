@@ -69,7 +69,6 @@ public:
     virtual Eigen::Map<VecX> solution() = 0;
 };
 
-/// Maps prepared nodes to columns of a dense cache, keeping columns of nodes still listed.
 /// Reduced global step: S q = B^T (b - A X), x = X + B q with S = B^T A B prefactored in the
 /// model (dense LLT). Up to dense_inverse_limit columns, the step keeps S^-1 itself and a solve
 /// is one product of it with the three right-hand sides, in row blocks in parallel: triangular
