@@ -95,8 +95,7 @@ public:
     virtual const VecX& diagonal() const = 0;
     /// Contact c's row in the columns, covering it first if it is not.
     virtual int cover(Index c) = 0;
-    /// Covers each of `contacts`, their rows in `rows` (the same as cover() one by one; an
-    /// implementation may prepare what they need together).
+    /// Covers each of `contacts`, their rows in `rows`.
     virtual void cover_all(const std::vector<Index>& contacts, std::vector<int>& rows)
     {
         rows.clear();

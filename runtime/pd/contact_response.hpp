@@ -21,13 +21,6 @@ public:
     virtual Index response_size() const = 0;
     /// A new step of contacts: the responses not asked for in the last step may be forgotten.
     virtual void begin_contacts() = 0;
-    /// Computes the responses of those of `nodes` not kept yet, together (a full-space body
-    /// solves them as one multi-column solve; the default asks for each).
-    virtual void request_nodes(const std::vector<int>& nodes)
-    {
-        for (const int node : nodes)
-            node_response(node);
-    }
     /// z_j, computed the first time it is asked for (and kept while it is asked for each step);
     /// the reference stays valid until the next begin_contacts().
     virtual Eigen::Ref<const VecX> node_response(int node) = 0;

@@ -161,7 +161,6 @@ private:
         MatX responses; ///< pool of multi-term responses, one column each
         int pool_used = 0;
         std::vector<char> pool_ready; ///< per pool column, computed this step
-        std::vector<int> requested; ///< cover_all's scratch: nodes whose responses it needs
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
         /// The rows of the response space its sides' directions read, increasing (empty: all;
@@ -189,7 +188,6 @@ private:
     // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).
     const VecX& diagonal() const override { return m_diagonal; }
     int cover(Index c) override;
-    void cover_all(const std::vector<Index>& contacts, std::vector<int>& rows) override;
     const double* column(Index c) override;
     void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
         const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;

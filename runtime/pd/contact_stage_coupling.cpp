@@ -59,31 +59,6 @@ int ContactStage::cover(Index c)
     return row;
 }
 
-// The responses the new rows need, requested per body at once (a full-space body solves them
-// together), then the rows.
-void ContactStage::cover_all(const std::vector<Index>& contacts, std::vector<int>& rows)
-{
-    for (BodyData& data : m_data)
-        data.requested.clear();
-    for (const Index c : contacts) {
-        if (m_row_of[static_cast<std::size_t>(c)] >= 0)
-            continue;
-        const Record& record = m_records[static_cast<std::size_t>(c)];
-        for (int s = 0; s < record.num_sides; ++s) {
-            const Side& side = record.sides[static_cast<std::size_t>(s)];
-            std::vector<int>& requested = m_data[static_cast<std::size_t>(side.body)].requested;
-            for (int k = side.first; k < side.first + side.count; ++k)
-                requested.push_back(m_term_node[static_cast<std::size_t>(k)]);
-        }
-    }
-    for (std::size_t b = 0; b < m_data.size(); ++b)
-        if (m_solvers[b] != nullptr && !m_data[b].requested.empty())
-            m_solvers[b]->contact_response().request_nodes(m_data[b].requested);
-    rows.clear();
-    for (const Index c : contacts)
-        rows.push_back(cover(c));
-}
-
 // A new column: W between each covered contact and d (J_c D_b z_d over d's sides).
 const double* ContactStage::column(Index d)
 {

@@ -199,35 +199,6 @@ void FullGlobalStep::solve(Eigen::Ref<MatX3> rhs, SolverTimings& timings)
     timings.solve += timer.seconds();
 }
 
-// In blocks of columns: one multi-column solve is far faster than as many single ones, and a
-// block bounds the memory (n x 32 doubles).
-void FullGlobalStep::request_nodes(const std::vector<int>& nodes)
-{
-    constexpr Index request_block = 32;
-    m_missing.clear();
-    for (const int node : nodes)
-        if (!m_cache.has(node))
-            m_missing.push_back(node);
-    std::sort(m_missing.begin(), m_missing.end());
-    m_missing.erase(std::unique(m_missing.begin(), m_missing.end()), m_missing.end());
-    const Index n = m_x.rows();
-    for (std::size_t first = 0; first < m_missing.size();
-         first += static_cast<std::size_t>(request_block)) {
-        const Index count
-            = std::min<Index>(request_block, static_cast<Index>(m_missing.size() - first));
-        if (m_units.rows() != n || m_units.cols() != count)
-            m_units.resize(n, count);
-        m_units.setZero();
-        for (Index c = 0; c < count; ++c)
-            m_units(m_missing[first + static_cast<std::size_t>(c)], c) = 1.0;
-        m_cholesky.solve_in_place(m_units);
-        for (Index c = 0; c < count; ++c) {
-            bool fresh = false;
-            m_cache.column(m_missing[first + static_cast<std::size_t>(c)], fresh) = m_units.col(c);
-        }
-    }
-}
-
 Eigen::Ref<const VecX> FullGlobalStep::node_response(int node)
 {
     bool fresh = false;

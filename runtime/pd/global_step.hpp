@@ -128,7 +128,6 @@ public:
     ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_x.rows(); }
     void begin_contacts() override { m_cache.begin_step(); }
-    void request_nodes(const std::vector<int>& nodes) override;
     Eigen::Ref<const VecX> node_response(int node) override;
     double apply(int node, const Eigen::Ref<const VecX>& response) const override
     {
@@ -146,8 +145,6 @@ private:
     SparseCholesky m_cholesky;
     MatX3 m_x; ///< n x 3
     ResponseCache m_cache; ///< A^-1 e_j per node j asked for
-    std::vector<int> m_missing; ///< request_nodes' scratch
-    MatX m_units; ///< request_nodes' right-hand sides, n x up to request_block
 };
 
 } // namespace mat
