@@ -221,7 +221,9 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
         for (Index c = 0; c < m; ++c)
             if (member[static_cast<std::size_t>(c)])
                 working.push_back(c);
-        coupling.cover_all(working, rows);
+        rows.clear();
+        for (const Index c : working)
+            rows.push_back(coupling.cover(c));
         // The sweeps on contiguous copies of the working set's positions and columns.
         const Index size = static_cast<Index>(working.size());
         if (scratch.working_positions.rows() < size)

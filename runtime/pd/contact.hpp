@@ -95,13 +95,6 @@ public:
     virtual const VecX& diagonal() const = 0;
     /// Contact c's row in the columns, covering it first if it is not.
     virtual int cover(Index c) = 0;
-    /// Covers each of `contacts`, their rows in `rows`.
-    virtual void cover_all(const std::vector<Index>& contacts, std::vector<int>& rows)
-    {
-        rows.clear();
-        for (const Index c : contacts)
-            rows.push_back(cover(c));
-    }
     /// Column c of D over the covered rows (entry cover(d) is D_dc); valid until the next
     /// cover() of a contact not covered yet.
     virtual const double* column(Index c) = 0;

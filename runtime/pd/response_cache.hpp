@@ -18,8 +18,6 @@ public:
     /// Node's column; `fresh` is set when it was not kept, and the caller must fill it. The
     /// column stays where it is until the node is forgotten.
     Eigen::Ref<VecX> column(int node, bool& fresh);
-    /// Whether node's column is kept.
-    bool has(int node) const { return m_slot[static_cast<std::size_t>(node)] >= 0; }
 
 private:
     static constexpr Index block_columns = 64;
