@@ -2,6 +2,8 @@
 // The monomials of a handle's local coordinates y = (x - c_j) / s_j (docs/method.md, section 2,
 // steps 3 and 5), in the one order the bake's basis columns and the runtime's products share.
 
+#include "common/host_device.hpp"
+
 namespace mat {
 
 /// Columns per linear handle: 1, y1, y2, y3.
@@ -20,7 +22,7 @@ inline constexpr int quadratic_monomial_second[6] = { 0, 1, 2, 1, 2, 2 };
 ///   p[4] = y1 y1,   p[5] = y2 y2,   p[6] = y3 y3,
 ///   p[7] = y1 y2,   p[8] = y2 y3,   p[9] = y1 y3.
 /// A linear handle uses p[0 .. 4), a quadratic one all ten.
-inline void handle_monomials(double y1, double y2, double y3, double (&p)[quadratic_handle_terms])
+MAT_HD void handle_monomials(double y1, double y2, double y3, double (&p)[quadratic_handle_terms])
 {
     p[0] = 1.0;
     p[1] = y1;

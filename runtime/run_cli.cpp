@@ -46,6 +46,10 @@ int run_main(int argc, char** argv)
            "hyper-reduced PD (local step on sampled tets, solver.hyper_samples)")
         ->check(CLI::IsMember({ "semi", "full", "hyper" }))
         ->capture_default_str();
+    app.add_option("--device", options.device,
+           "cpu, or cuda: the semi-reduced step on the GPU (overrides solver.device; needs a "
+           "build with -DMAT_CUDA=ON and a CUDA device)")
+        ->check(CLI::IsMember({ "cpu", "cuda" }));
     app.add_option("--stats", options.stats,
         "Write per-frame timings, iterations, energies, strain and contacts as JSON");
     app.add_flag("--check-collisions", options.check_collisions,

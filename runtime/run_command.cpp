@@ -79,6 +79,7 @@ namespace {
             { "collision (detection)", collision_seconds },
             { "collision (contact)", t.contact },
             { "acceleration", t.acceleration },
+            { "GPU step (--device)", t.device },
             { "export", export_seconds },
             { "preview (--preview)", preview_seconds },
             { "measures (stats)", measure_seconds },
@@ -268,6 +269,7 @@ namespace {
                 stats.record_step();
                 progress.advance();
             }
+            simulation.sync_host(); // --device cuda: the frame's states from the GPU
             output_frame(frame, step_timer.seconds(), simulation, stats, exporter, preview);
             if (frame == frames || (checkpoints.every > 0 && frame % checkpoints.every == 0)) {
                 Timer timer;
@@ -338,7 +340,9 @@ namespace {
 void run_simulation(const RunOptions& options)
 {
     Timer total;
-    const Scene scene = read_scene(options.scene);
+    Scene scene = read_scene(options.scene);
+    if (!options.device.empty())
+        scene.solver.device = options.device == "cuda" ? DeviceMode::cuda : DeviceMode::cpu;
     const SolverKind solver_kind = parse_solver_kind(options.solver);
     const int frames = checked_frames(options, scene);
 

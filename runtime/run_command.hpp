@@ -11,6 +11,7 @@ struct RunOptions {
     std::string output; ///< output directory (created if missing)
     int frames = 0; ///< > 0 overrides the scene's frame count
     std::string solver = "semi"; ///< "semi" (semi-reduced PD) or "full" (full-space PD)
+    std::string device; ///< "cpu" or "cuda": overrides the scene's solver.device ("" keeps it)
     std::string stats; ///< --stats FILE.json, "" for none
     /// After each step, compare the collision world's triangle pairs with the exhaustive ground
     /// truth and measure the penetration (runtime/measures/collision_check.hpp).

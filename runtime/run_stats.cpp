@@ -32,6 +32,7 @@ namespace {
             { "reconstruct", scale * (now.reconstruct - before.reconstruct) },
             { "contact", scale * (now.contact - before.contact) },
             { "acceleration", scale * (now.acceleration - before.acceleration) },
+            { "device", scale * (now.device - before.device) },
             { "export", scale * export_seconds },
         };
     }
@@ -128,6 +129,7 @@ SolverTimings total_timings(const Simulation& simulation)
         sum.reconstruct += t.reconstruct;
         sum.contact += t.contact;
         sum.acceleration += t.acceleration;
+        sum.device += t.device;
         sum.iterations += t.iterations;
         sum.accelerated += t.accelerated;
         sum.refused += t.refused;

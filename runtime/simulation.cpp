@@ -108,6 +108,7 @@ void Simulation::update_sleep(Body& body, bool pins_moved)
 {
     if (body.sleep_speed <= 0.0)
         return;
+    body.solver->sync_state(body.state);
     const double speed_squared = body.state.velocities.rowwise().squaredNorm().maxCoeff();
     logger().trace("{}: step {}, fastest node {:.3g} m/s (sleeps below {:.3g})", body.name,
         m_steps + 1, std::sqrt(speed_squared), body.sleep_speed);
@@ -118,6 +119,7 @@ void Simulation::update_sleep(Body& body, bool pins_moved)
         logger().debug("{} falls asleep at step {}", body.name, m_steps + 1);
         body.asleep = true;
         body.state.velocities.setZero();
+        body.solver->state_written();
     }
 }
 
@@ -150,6 +152,16 @@ void Simulation::step()
         contacts = &detect_contacts();
     step_bodies(*contacts, pins_moved);
     ++m_steps;
+    // --device cuda leaves the states on the GPU; collision detection reads them every step.
+    if (m_collision)
+        sync_host();
+}
+
+void Simulation::sync_host()
+{
+    for (Body& body : m_bodies)
+        if (body.solver)
+            body.solver->sync_state(body.state);
 }
 
 // How far a node of an awake dynamic body may move in the coming step: h |v| at its fastest

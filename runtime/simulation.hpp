@@ -76,8 +76,13 @@ public:
     /// Bodies asleep now.
     int num_sleeping() const;
 
-    /// The state between two steps (runtime/simulation_snapshot.cpp).
-    SimulationSnapshot snapshot() const;
+    /// Brings every body's state to the host where its solver left it on a GPU (--device cuda;
+    /// PdSolver::sync_state): before anything reads the states between steps. With collision
+    /// detection on, each step does it itself.
+    void sync_host();
+
+    /// The state between two steps (runtime/simulation_snapshot.cpp; syncs the host first).
+    SimulationSnapshot snapshot();
     /// Continues from a snapshot of a simulation of the same scene and bakes (before any step of
     /// this one). Throws mat::Error if a body's sizes differ.
     void restore(const SimulationSnapshot& snapshot);

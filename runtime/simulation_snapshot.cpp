@@ -19,8 +19,9 @@ namespace {
 
 } // namespace
 
-SimulationSnapshot Simulation::snapshot() const
+SimulationSnapshot Simulation::snapshot()
 {
+    sync_host();
     SimulationSnapshot snapshot;
     snapshot.steps = m_steps;
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
@@ -59,6 +60,8 @@ void Simulation::restore(const SimulationSnapshot& snapshot)
         check_rows(body.name, "pin targets", s.pin_targets.rows(), body.pin_targets.rows());
         body.state.positions = s.positions;
         body.state.velocities = s.velocities;
+        if (body.solver)
+            body.solver->state_written();
         body.pin_targets = s.pin_targets;
         body.asleep = s.asleep;
         body.slow_steps = s.slow_steps;

@@ -38,6 +38,12 @@ public:
     /// The same with y read row by row from the local step's sums (y = base + the slot sums, see
     /// LocalSums): the right-hand side is never written out.
     void transpose_times(const LocalSums& y, double* out);
+    /// The handle form's nonzero entries, node by node (only when factored()): node i has the
+    /// entries [node_offsets()[i], node_offsets()[i + 1]) of node_handles() (handle indices,
+    /// ascending) and node_weights() (w_ij).
+    const std::vector<int>& node_offsets() const { return m_node_offsets; }
+    const std::vector<int>& node_handles() const { return m_node_handles; }
+    const std::vector<double>& node_weights() const { return m_node_weights; }
     /// x = X + B q: `q`  k x 3 row-major, `x`  n x 3 row-major.
     /// Not for concurrent calls on one object (it keeps a workspace).
     void reconstruct(const double* q, double* x);

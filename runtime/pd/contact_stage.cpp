@@ -53,6 +53,8 @@ void ContactStage::add_ground_contacts(int b, const ContactBodyState& body)
     const MatX3& inertia = solver.inertia_target();
     const int plane_offset = static_cast<int>(m_planes.size());
     m_planes.insert(m_planes.end(), planes.begin(), planes.end());
+    if (!solver.planes_near())
+        return; // --device cuda: the GPU found no node near a plane (then x_n, s are not here)
     for (const int i : data.boundary)
         for (std::size_t p = 0; p < planes.size(); ++p) {
             const PlaneCollider& plane = planes[p];

@@ -28,6 +28,9 @@ struct SolverTimings {
     /// The accelerated iteration: the energy's inertia and pin terms, Anderson's extrapolation
     /// (the local and global work of a refused iterate's redone iteration counts as theirs).
     double acceleration = 0.0;
+    /// --device cuda: the GPU step's kernels and transfers, host wall time (its phases apart
+    /// only with DeviceSemiStep::set_profiling; runtime/gpu/device_step.hpp).
+    double device = 0.0;
     long steps = 0;
     long iterations = 0;
     long accelerated = 0; ///< extrapolated iterates the safeguard accepted

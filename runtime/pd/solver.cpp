@@ -67,6 +67,17 @@ namespace {
         return weights / weights.mean();
     }
 
+    /// s = x_n + h v_n + h^2 g.
+    void inertia_positions(const State& in, double h, const Vec3& gravity, MatX3& s)
+    {
+        const Eigen::RowVector3d shift = (h * h) * gravity.transpose();
+        tbb::parallel_for(tbb::blocked_range<Index>(0, in.positions.rows()),
+            [&](const tbb::blocked_range<Index>& range) {
+                for (Index i = range.begin(); i != range.end(); ++i)
+                    s.row(i) = in.positions.row(i) + h * in.velocities.row(i) + shift;
+            });
+    }
+
 } // namespace
 
 SolverKind parse_solver_kind(const std::string& name)
@@ -173,6 +184,17 @@ PdSolver::PdSolver(const Model& model, const SolverOptions& options,
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     m_options.contact.tolerance = options.contact.tolerance * diagonal;
+    if (options.device == Device::cuda) {
+        if (m_global->reduced_coordinates() == nullptr || m_local->num_tets() != model.num_tets())
+            throw_error("--device cuda runs the semi-reduced solver only (--solver semi)");
+        if (options.acceleration != Acceleration::none)
+            throw_error("--device cuda: solver.acceleration must be none (Anderson acceleration "
+                        "runs on the CPU only)");
+        m_device = std::make_unique<DeviceSemiStep>(
+            model, options.gravity, options.damping, options.iterations, options.planes);
+        m_device_margin = options.contact_margin * diagonal;
+        m_device_q.resize(model.num_columns(), 3);
+    }
 }
 
 PdSolver::~PdSolver() = default;
@@ -209,6 +231,10 @@ void PdSolver::step(const State& in, State& out)
 
 void PdSolver::begin_step(const State& in, State& out)
 {
+    if (m_device) {
+        device_begin_step(in, out);
+        return;
+    }
     const Model& model = *m_model;
     const Index n = model.num_nodes();
     if (in.positions.rows() != n || in.velocities.rows() != n)
@@ -225,11 +251,7 @@ void PdSolver::begin_step(const State& in, State& out)
 
     // s = x_n + h v_n + h^2 g  (Bouaziz et al. 2014, eq. 9 with f_ext = M g).
     Timer timer;
-    const Eigen::RowVector3d shift = (h * h) * m_options.gravity.transpose();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
-        for (Index i = range.begin(); i != range.end(); ++i)
-            m_inertia.row(i) = in.positions.row(i) + h * in.velocities.row(i) + shift;
-    });
+    inertia_positions(in, h, m_options.gravity, m_inertia);
     out.positions = m_inertia;
     // b = M s / h^2 + P p + r  (Bouaziz et al. 2014, eq. 13 with pins): all but the local step's
     // r are the same in every iteration of the step.
@@ -246,6 +268,10 @@ void PdSolver::begin_step(const State& in, State& out)
 void PdSolver::iterate(int iteration)
 {
     MAT_CHECK(m_out != nullptr, "solver: iterate() outside a step");
+    if (m_device) {
+        device_iterate(iteration);
+        return;
+    }
     if (iteration == 0)
         begin_acceleration();
     m_local->iterate(*m_model, iteration, m_out->positions, m_rhs_base, *m_global, m_timings);
@@ -311,6 +337,10 @@ void PdSolver::safeguard(int iteration)
 
 void PdSolver::finish_iteration(int iteration)
 {
+    if (m_device) {
+        device_finish_iteration(iteration);
+        return;
+    }
     if (m_accelerating && iteration + 1 < m_options.iterations) {
         // The next iterate from this one's solve (after the contact stage, which found no
         // candidates): the last solve is kept plain, so the step ends on an accepted iterate.
@@ -330,6 +360,10 @@ void PdSolver::finish_iteration(int iteration)
 void PdSolver::end_step()
 {
     MAT_CHECK(m_in != nullptr && m_out != nullptr, "solver: end_step() outside a step");
+    if (m_device) {
+        device_end_step();
+        return;
+    }
     const State& in = *m_in;
     State& out = *m_out;
     const Index n = m_model->num_nodes();
@@ -345,6 +379,122 @@ void PdSolver::end_step()
     if (!out.positions.allFinite())
         throw_error("projective dynamics: the positions are not finite after the step");
     ++m_timings.steps;
+}
+
+// ---- the GPU step (docs/gpu.md) ---------------------------------------------------------------
+
+void PdSolver::device_begin_step(const State& in, State& out)
+{
+    const Model& model = *m_model;
+    const Index n = model.num_nodes();
+    if (in.positions.rows() != n || in.velocities.rows() != n)
+        throw_error("solver: state has {} positions and {} velocities, the model has {} nodes",
+            in.positions.rows(), in.velocities.rows(), n);
+    if (&in == &out)
+        throw_error("solver: the input and output states must be different objects");
+    m_in = &in;
+    m_out = &out;
+    m_report = StepReport {};
+    Timer timer;
+    out.positions.resize(n, 3);
+    out.velocities.resize(n, 3);
+    // The GPU holds `in` if it is the last step's result (the driver swaps the matrices, so
+    // their storage identifies it) and nothing wrote it since.
+    if (!holds_on_device(in))
+        m_device->upload_state(in.positions, in.velocities);
+    m_device_x = nullptr; // `in` is read, not held, from here on
+    m_device->begin_step(m_pin_targets);
+    m_planes_near = false;
+    for (const double distance : m_device->plane_minima())
+        m_planes_near = m_planes_near || distance < m_device_margin;
+    if (m_planes_near) {
+        // The contact stage finds the ground candidates at x_n and at s on the CPU.
+        if (in.positions.data() == m_device_x_last && !m_host_current) {
+            // The state's own values, brought over (see sync_state).
+            m_device->download_state(
+                const_cast<MatX3&>(in.positions), const_cast<MatX3&>(in.velocities));
+            m_host_current = true;
+        }
+        inertia_positions(in, model.time_step(), m_options.gravity, m_inertia);
+    }
+    m_timings.device += timer.seconds();
+    m_contact_nodes = 0; // the contact stage's begin_step sets it
+}
+
+void PdSolver::device_iterate(int iteration)
+{
+    Timer timer;
+    if (m_contact_nodes == 0) {
+        // No contact: every iteration at once, on the GPU.
+        if (iteration == 0)
+            m_device->iterate_all();
+    } else {
+        m_device->iterate();
+        m_device->download_q(m_device_q);
+        m_global->set_reduced_coordinates(m_device_q);
+    }
+    m_timings.device += timer.seconds();
+}
+
+void PdSolver::device_finish_iteration(int iteration)
+{
+    Timer timer;
+    if (m_contact_nodes > 0) {
+        // The contact stage's forces have moved q on the CPU.
+        m_device->upload_q(*m_global->reduced_coordinates());
+        m_device->reconstruct();
+        if (iteration + 1 == m_options.iterations) // the contact stage's report reads them
+            m_device->download_positions(m_out->positions);
+    }
+    ++m_timings.iterations;
+    m_timings.device += timer.seconds();
+}
+
+void PdSolver::device_end_step()
+{
+    Timer timer;
+    m_device->end_step();
+    // The result stays on the GPU; the host's copy of `out` is brought over by sync_state().
+    m_device_x = m_out->positions.data();
+    m_device_v = m_out->velocities.data();
+    m_device_x_last = m_device_x;
+    m_host_current = false;
+    m_q_current = false;
+    m_timings.device += timer.seconds();
+    m_in = nullptr;
+    m_out = nullptr;
+    ++m_timings.steps;
+}
+
+bool PdSolver::holds_on_device(const State& state) const
+{
+    return m_device && m_device_x != nullptr && state.positions.data() == m_device_x
+        && state.velocities.data() == m_device_v;
+}
+
+void PdSolver::sync_state(State& state)
+{
+    if (!m_device || m_in != nullptr)
+        return;
+    if (!m_host_current && state.positions.data() == m_device_x_last) {
+        Timer timer;
+        m_device->download_state(state.positions, state.velocities);
+        m_host_current = true;
+        m_timings.device += timer.seconds();
+        if (!state.positions.allFinite())
+            throw_error("projective dynamics: the positions are not finite after the step");
+    }
+    if (!m_q_current) {
+        m_device->download_q(m_device_q);
+        m_global->set_reduced_coordinates(m_device_q);
+        m_q_current = true;
+    }
+}
+
+void PdSolver::state_written()
+{
+    m_device_x = nullptr;
+    m_device_v = nullptr;
 }
 
 } // namespace mat

@@ -28,6 +28,10 @@
 // effect depends on dt), not Rayleigh damping. Implicit Euler itself dissipates energy too.
 // Pinned nodes follow the targets set with set_pin_targets() (kinematic motion), by default the
 // model's.
+// With `device` cuda (semi-reduced only) the local step and the reduced solve run on the GPU
+// (runtime/gpu/device_step.hpp; docs/gpu.md): a step without contact candidates runs there whole,
+// one CUDA graph of its iterations; in a step with candidates, q comes to the CPU's contact stage
+// and back in every iteration.
 // A solver holds only workspace (and, full space, the CHOLMOD factor) for the one Model it
 // was made for, which must outlive it; step() allocates nothing once the workspace exists,
 // except when the set of contact candidates grows past anything seen before.
@@ -38,6 +42,7 @@
 
 #include "common/eigen_types.hpp"
 #include "common/error.hpp"
+#include "runtime/gpu/device_step.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/anderson.hpp"
 #include "runtime/pd/contact.hpp"
@@ -63,6 +68,10 @@ enum class Acceleration { none, anderson };
 /// "none" or "anderson" -> Acceleration; throws mat::Error otherwise.
 Acceleration parse_acceleration(const std::string& name);
 
+/// Where the semi-reduced step runs: the CPU, or a CUDA GPU (runtime/gpu/device_step.hpp;
+/// docs/gpu.md). The full-space and hyper-reduced solvers run on the CPU only.
+enum class Device { cpu, cuda };
+
 struct SolverOptions {
     int iterations = 10; ///< local/global iterations per step, >= 1
     Vec3 gravity = Vec3(0.0, -9.81, 0.0); ///< external acceleration, m/s^2
@@ -80,6 +89,7 @@ struct SolverOptions {
     double node_contact_compliance = 0.1;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
+    Device device = Device::cpu;
 };
 
 /// What the last step did.
@@ -195,6 +205,19 @@ public:
         m_global->set_reduced_coordinates(q);
     }
 
+    /// The GPU step (--device cuda), or null.
+    DeviceSemiStep* device() { return m_device.get(); }
+    /// --device cuda: a step leaves its result on the GPU, and the host's copy of `out` (its
+    /// positions and velocities) and the CPU's q are stale until sync_state(out), which brings
+    /// them over if `state` is that result (else, and on the CPU, it does nothing). Whoever
+    /// reads a state between steps calls it first; whoever writes one calls state_written(), so
+    /// that the next step uploads it.
+    void sync_state(State& state);
+    void state_written();
+    /// Whether a node may be within the contact margin of a ground plane this step (the GPU
+    /// finds the nearest; the contact stage looks for ground contacts only then). Always true
+    /// on the CPU.
+    bool planes_near() const { return !m_device || m_planes_near; }
     const LocalStage& local_stage() const { return *m_local; }
     LocalStage& local_stage() { return *m_local; }
 
@@ -231,6 +254,26 @@ private:
     bool m_extrapolated = false; ///< the iterate the next iterate() reads is extrapolated
     AndersonAcceleration m_anderson;
     VecX m_anderson_weights; ///< the least squares' weights (made on the first accelerated step)
+    /// --device cuda: the step runs there; the CPU's global step stays the contact stage's
+    /// view of it (q is brought over in each iteration of a step with contact candidates).
+    std::unique_ptr<DeviceSemiStep> m_device;
+    MatX m_device_q; ///< k x 3, q to and from the GPU
+    double m_device_margin = 0.0; ///< the contact stage's candidate distance (m)
+    /// The storage of the State whose values the GPU holds (the last step's result), or null
+    /// after the host wrote it (state_written) or a step read it.
+    const double* m_device_x = nullptr;
+    const double* m_device_v = nullptr;
+    const double* m_device_x_last = nullptr; ///< the last step's result's, kept
+    bool m_host_current = true; ///< the last step's result is on the host too
+    bool m_q_current = true; ///< the CPU global step's q is the GPU's
+    bool m_planes_near = true; ///< a node is within the margin of a plane in this step
+
+    /// Whether the GPU holds `state`'s values (a step from it needs no upload).
+    bool holds_on_device(const State& state) const;
+    void device_begin_step(const State& in, State& out);
+    void device_iterate(int iteration);
+    void device_finish_iteration(int iteration);
+    void device_end_step();
 
     /// At iteration 0: whether this step accelerates, and its start.
     void begin_acceleration();

@@ -32,6 +32,7 @@ struct TimeSettings {
 enum class ProjectionMode { fast, exact };
 /// The PD iteration within a step (SolverOptions::acceleration).
 enum class AccelerationMode { none, anderson };
+enum class DeviceMode { cpu, cuda };
 /// Collision between objects: medial bounds enlarged to enclose the deformed surface, moved
 /// only, or none (runtime/collision/collision_world.hpp).
 enum class CollisionMode { bounded, lazy, off };
@@ -45,6 +46,7 @@ struct SolverSettings {
     double volume_tolerance = 0.0; ///< det F kept in [1 - tol, 1 + tol]
     ProjectionMode projections = ProjectionMode::fast; ///< "fast" or "exact"
     AccelerationMode acceleration = AccelerationMode::none; ///< "none" or "anderson"
+    DeviceMode device = DeviceMode::cpu; ///< "cpu" or "cuda" (the semi-reduced step on a GPU)
     int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"

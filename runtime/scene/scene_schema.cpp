@@ -225,6 +225,10 @@ namespace {
                          "--solver hyper the fixed-point residual, is replaced by the plain one); "
                          "a body's steps with contact candidates run plain (docs/method.md, "
                          "\"Accelerated iterations\")"),
+            enum_key(S::solver, "device", &SolverSettings::device, { "cpu", "cuda" })
+                .set_default("cpu")
+                .set_doc("where the semi-reduced step runs: cpu, or cuda (a GPU; mat-run built "
+                         "with -DMAT_CUDA=ON; --device overrides; docs/gpu.md)"),
             value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)
                 .set_default(5)
                 .at_least(1)

@@ -1,0 +1,820 @@
+// The semi-reduced step's kernels and the device memory they work on (docs/gpu.md). Every sum
+// has a fixed order (per node over its sorted corners, per handle over fixed segments reduced in
+// a fixed tree, per row of S^-1 in a fixed warp reduction): a step's result does not depend on
+// the scheduling, and no atomics are used.
+
+#include "runtime/gpu/device_engine.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+
+#include <cuda_runtime.h>
+
+namespace mat::gpu {
+
+namespace {
+
+    void check(cudaError_t status, const char* what)
+    {
+        if (status != cudaSuccess)
+            throw std::runtime_error(
+                std::string("cuda: ") + what + ": " + cudaGetErrorString(status));
+    }
+
+    template <typename T> T* upload(const std::vector<T>& host, const char* what)
+    {
+        T* device = nullptr;
+        const std::size_t bytes = (host.empty() ? 1 : host.size()) * sizeof(T);
+        check(cudaMalloc(&device, bytes), what);
+        if (!host.empty())
+            check(cudaMemcpy(device, host.data(), host.size() * sizeof(T), cudaMemcpyHostToDevice),
+                what);
+        return device;
+    }
+
+    template <typename T> T* allocate(std::size_t count, const char* what)
+    {
+        T* device = nullptr;
+        check(cudaMalloc(&device, (count == 0 ? 1 : count) * sizeof(T)), what);
+        check(cudaMemset(device, 0, (count == 0 ? 1 : count) * sizeof(T)), what);
+        return device;
+    }
+
+    constexpr int block_size = 128;
+    /// Entries of B^T y per segment (one block of block_size threads each).
+    constexpr int segment_entries = 512;
+    constexpr int max_terms = 10;
+
+    int blocks_for(int count)
+    {
+        return (count + block_size - 1) / block_size;
+    }
+
+    // ---- kernels ----------------------------------------------------------------------------
+
+    struct StepConstants {
+        double h;
+        double gravity[3];
+        double velocity_scale; ///< (1 - damping) / h
+        double pin_weight;
+    };
+
+    /// s = x_n + h v_n + h^2 g, x = s, base = M s / h^2 - A X.
+    __global__ void begin_kernel(int n, StepConstants k, const double* __restrict__ xn,
+        const double* __restrict__ v, const double* __restrict__ mass_h2,
+        const double* __restrict__ rest_system, double* __restrict__ x, double* __restrict__ base)
+    {
+        const int i = blockIdx.x * blockDim.x + threadIdx.x;
+        if (i >= n)
+            return;
+        for (int c = 0; c < 3; ++c) {
+            const double s = xn[3 * i + c] + k.h * v[3 * i + c] + k.h * k.h * k.gravity[c];
+            x[3 * i + c] = s;
+            base[3 * i + c] = mass_h2[i] * s - rest_system[3 * i + c];
+        }
+    }
+
+    /// base += w_p p at the pinned nodes (distinct).
+    __global__ void pin_kernel(int count, double weight, const int* __restrict__ nodes,
+        const double* __restrict__ targets, double* __restrict__ base)
+    {
+        const int p = blockIdx.x * blockDim.x + threadIdx.x;
+        if (p >= count)
+            return;
+        for (int c = 0; c < 3; ++c)
+            base[3 * nodes[p] + c] += weight * targets[3 * p + c];
+    }
+
+    /// One tet per thread: F, its weighted projection, the corners' shares.
+    __global__ void local_kernel(int tets, ProjectionWeights weights,
+        const int4* __restrict__ tet_nodes, const double* __restrict__ dm_inverse,
+        const double* __restrict__ volumes, const double* __restrict__ x, float4* __restrict__ warm,
+        double* __restrict__ shares)
+    {
+        const int e = blockIdx.x * blockDim.x + threadIdx.x;
+        if (e >= tets)
+            return;
+        const int4 corners = tet_nodes[e];
+        const int ids[4] = { corners.x, corners.y, corners.z, corners.w };
+        double p[4][3];
+        for (int c = 0; c < 4; ++c)
+            for (int d = 0; d < 3; ++d)
+                p[c][d] = x[3 * ids[c] + d];
+        double dm[9];
+        for (int j = 0; j < 9; ++j)
+            dm[j] = dm_inverse[static_cast<long long>(j) * tets + e];
+        double f[3][3];
+        deformation_gradient(p, dm, f);
+        const float4 w4 = warm[e];
+        float quat[4] = { w4.x, w4.y, w4.z, w4.w };
+        double target[3][3];
+        weighted_projection(f, weights, quat, target);
+        warm[e] = make_float4(quat[0], quat[1], quat[2], quat[3]);
+        double share[4][3];
+        corner_shares(dm, volumes[e], target, share);
+        double* out = shares + 12 * static_cast<long long>(e);
+        for (int c = 0; c < 4; ++c)
+            for (int d = 0; d < 3; ++d)
+                out[3 * c + d] = share[c][d];
+    }
+
+    /// One node per thread: y = base + its corners' shares, in corner order.
+    __global__ void gather_kernel(int n, const int* __restrict__ offsets,
+        const int* __restrict__ corners, const double* __restrict__ shares,
+        const double* __restrict__ base, double* __restrict__ y)
+    {
+        const int i = blockIdx.x * blockDim.x + threadIdx.x;
+        if (i >= n)
+            return;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+        for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
+            const double* share = shares + 3 * static_cast<long long>(corners[j]);
+            s0 += share[0];
+            s1 += share[1];
+            s2 += share[2];
+        }
+        y[3 * i] = base[3 * i] + s0;
+        y[3 * i + 1] = base[3 * i + 1] + s1;
+        y[3 * i + 2] = base[3 * i + 2] + s2;
+    }
+
+    struct Segments {
+        const int* handle; ///< per segment
+        const int* begin; ///< per segment: first entry
+        const int* end;
+        int count;
+    };
+
+    __device__ inline double warp_sum(double value)
+    {
+        for (int offset = 16; offset > 0; offset >>= 1)
+            value += __shfl_down_sync(0xffffffffu, value, offset);
+        return value;
+    }
+
+    /// One block per segment of one handle's entries: sum_e w_e p_t(y_e) y_{node e}, for the
+    /// handle's `Terms` monomials and three coordinates, into the segment's partial.
+    template <int Terms>
+    __global__ void transpose_kernel(Segments segments, int first_partial,
+        const double* __restrict__ centers, const double* __restrict__ scales,
+        const int* __restrict__ entry_nodes, const double* __restrict__ entry_weights,
+        const double* __restrict__ rest, const double* __restrict__ y,
+        double* __restrict__ partials)
+    {
+        const int seg = blockIdx.x;
+        if (seg >= segments.count)
+            return;
+        const int j = segments.handle[seg];
+        const double cx = centers[3 * j], cy = centers[3 * j + 1], cz = centers[3 * j + 2];
+        const double inverse_scale = scales[j];
+        double acc[Terms * 3];
+        for (int t = 0; t < Terms * 3; ++t)
+            acc[t] = 0.0;
+        for (int e = segments.begin[seg] + threadIdx.x; e < segments.end[seg]; e += blockDim.x) {
+            const int i = entry_nodes[e];
+            const double w = entry_weights[e];
+            double p[max_terms];
+            handle_monomials((rest[3 * i] - cx) * inverse_scale,
+                (rest[3 * i + 1] - cy) * inverse_scale, (rest[3 * i + 2] - cz) * inverse_scale, p);
+            const double y0 = y[3 * i], y1 = y[3 * i + 1], y2 = y[3 * i + 2];
+#pragma unroll
+            for (int t = 0; t < Terms; ++t) {
+                const double wp = w * p[t];
+                acc[3 * t] += wp * y0;
+                acc[3 * t + 1] += wp * y1;
+                acc[3 * t + 2] += wp * y2;
+            }
+        }
+        __shared__ double warps[block_size / 32][Terms * 3];
+        const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+#pragma unroll
+        for (int t = 0; t < Terms * 3; ++t) {
+            const double sum = warp_sum(acc[t]);
+            if (lane == 0)
+                warps[warp][t] = sum;
+        }
+        __syncthreads();
+        if (threadIdx.x < Terms * 3) {
+            double sum = 0.0;
+            for (int w = 0; w < block_size / 32; ++w)
+                sum += warps[w][threadIdx.x];
+            partials[static_cast<long long>(first_partial + seg) * (max_terms * 3) + threadIdx.x]
+                = sum;
+        }
+    }
+
+    /// One thread per (handle, term, coordinate): the handle's segments' partials in order
+    /// (handle j's are [partial_ranges[2 j], partial_ranges[2 j + 1])).
+    __global__ void transpose_sum_kernel(int handles, const int* __restrict__ partial_ranges,
+        const int* __restrict__ offsets, const int* __restrict__ terms,
+        const double* __restrict__ partials, double* __restrict__ reduced)
+    {
+        const int id = blockIdx.x * blockDim.x + threadIdx.x;
+        const int j = id / (max_terms * 3), tc = id % (max_terms * 3);
+        if (j >= handles || tc >= terms[j] * 3)
+            return;
+        double sum = 0.0;
+        for (int s = partial_ranges[2 * j]; s < partial_ranges[2 * j + 1]; ++s)
+            sum += partials[static_cast<long long>(s) * (max_terms * 3) + tc];
+        reduced[3 * offsets[j] + tc] = sum;
+    }
+
+    /// One warp per row of S^-1: q_row = S^-1_row (B^T y), three right-hand sides.
+    __global__ void solve_kernel(int k, const double* __restrict__ inverse,
+        const double* __restrict__ reduced, double* __restrict__ q)
+    {
+        const int row = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
+        const int lane = threadIdx.x & 31;
+        if (row >= k)
+            return;
+        const double* a = inverse + static_cast<long long>(row) * k;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+        for (int c = lane; c < k; c += 32) {
+            const double value = a[c];
+            s0 += value * reduced[3 * c];
+            s1 += value * reduced[3 * c + 1];
+            s2 += value * reduced[3 * c + 2];
+        }
+        s0 = warp_sum(s0);
+        s1 = warp_sum(s1);
+        s2 = warp_sum(s2);
+        if (lane == 0) {
+            q[3 * row] = s0;
+            q[3 * row + 1] = s1;
+            q[3 * row + 2] = s2;
+        }
+    }
+
+    /// One node per thread: x = X + sum over its handles of w p(y) q.
+    __global__ void reconstruct_kernel(int n, const double* __restrict__ centers,
+        const double* __restrict__ scales, const int* __restrict__ handle_offsets,
+        const int* __restrict__ handle_terms, const int* __restrict__ entry_offsets,
+        const int* __restrict__ entry_handles, const double* __restrict__ entry_weights,
+        const double* __restrict__ rest, const double* __restrict__ q, double* __restrict__ x)
+    {
+        const int i = blockIdx.x * blockDim.x + threadIdx.x;
+        if (i >= n)
+            return;
+        const double rx = rest[3 * i], ry = rest[3 * i + 1], rz = rest[3 * i + 2];
+        double x0 = 0.0, x1 = 0.0, x2 = 0.0;
+        for (int e = entry_offsets[i]; e < entry_offsets[i + 1]; ++e) {
+            const int j = entry_handles[e];
+            const double w = entry_weights[e];
+            const double inverse_scale = scales[j];
+            double p[max_terms];
+            handle_monomials((rx - centers[3 * j]) * inverse_scale,
+                (ry - centers[3 * j + 1]) * inverse_scale,
+                (rz - centers[3 * j + 2]) * inverse_scale, p);
+            const double* qj = q + 3 * handle_offsets[j];
+            const int terms = handle_terms[j];
+            for (int t = 0; t < terms; ++t) {
+                const double wp = w * p[t];
+                x0 += wp * qj[3 * t];
+                x1 += wp * qj[3 * t + 1];
+                x2 += wp * qj[3 * t + 2];
+            }
+        }
+        x[3 * i] = rx + x0;
+        x[3 * i + 1] = ry + x1;
+        x[3 * i + 2] = rz + x2;
+    }
+
+    /// Per block and plane, the smallest n . x - n . p over its nodes at x_n and at s (planes: 4
+    /// doubles each, the unit normal and n . p). The minimum does not depend on the order.
+    __global__ void plane_kernel(int n, int num_planes, const double* __restrict__ planes,
+        const double* __restrict__ xn, const double* __restrict__ s,
+        double* __restrict__ block_minima)
+    {
+        __shared__ double least[block_size];
+        for (int p = 0; p < num_planes; ++p) {
+            const double* plane = planes + 4 * p;
+            double m = 1e300;
+            for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n;
+                 i += gridDim.x * blockDim.x) {
+                const double a = plane[0] * xn[3 * i] + plane[1] * xn[3 * i + 1]
+                    + plane[2] * xn[3 * i + 2] - plane[3];
+                const double b = plane[0] * s[3 * i] + plane[1] * s[3 * i + 1]
+                    + plane[2] * s[3 * i + 2] - plane[3];
+                m = fmin(m, fmin(a, b));
+            }
+            least[threadIdx.x] = m;
+            __syncthreads();
+            for (int half = block_size / 2; half > 0; half >>= 1) {
+                if (threadIdx.x < half)
+                    least[threadIdx.x] = fmin(least[threadIdx.x], least[threadIdx.x + half]);
+                __syncthreads();
+            }
+            if (threadIdx.x == 0)
+                block_minima[static_cast<long long>(p) * gridDim.x + blockIdx.x] = least[0];
+            __syncthreads();
+        }
+    }
+
+    /// One block: each plane's minimum over the blocks' minima.
+    __global__ void plane_reduce_kernel(int blocks, int num_planes,
+        const double* __restrict__ block_minima, double* __restrict__ minima)
+    {
+        __shared__ double least[block_size];
+        for (int p = 0; p < num_planes; ++p) {
+            double m = 1e300;
+            for (int b = threadIdx.x; b < blocks; b += blockDim.x)
+                m = fmin(m, block_minima[static_cast<long long>(p) * blocks + b]);
+            least[threadIdx.x] = m;
+            __syncthreads();
+            for (int half = block_size / 2; half > 0; half >>= 1) {
+                if (threadIdx.x < half)
+                    least[threadIdx.x] = fmin(least[threadIdx.x], least[threadIdx.x + half]);
+                __syncthreads();
+            }
+            if (threadIdx.x == 0)
+                minima[p] = least[0];
+            __syncthreads();
+        }
+    }
+
+    /// v = (1 - damping) (x - x_n) / h.
+    __global__ void end_kernel(int count, double scale, const double* __restrict__ x,
+        const double* __restrict__ xn, double* __restrict__ v)
+    {
+        const int i = blockIdx.x * blockDim.x + threadIdx.x;
+        if (i < count)
+            v[i] = scale * (x[i] - xn[i]);
+    }
+
+} // namespace
+
+struct Engine::Impl {
+    int n = 0, tets = 0, k = 0, m = 0, pins = 0, iterations = 1;
+    StepConstants constants {};
+    ProjectionWeights weights;
+    cudaStream_t stream = nullptr;
+    // Model.
+    int4* tet_nodes = nullptr;
+    double* dm_inverse = nullptr; ///< 9 T, component-major (j T + e)
+    double* volumes = nullptr;
+    int* incident_offsets = nullptr;
+    int* incident_corners = nullptr;
+    double* rest = nullptr;
+    double* mass_h2 = nullptr;
+    double* rest_system = nullptr;
+    int* pin_nodes = nullptr;
+    double* centers = nullptr;
+    double* scales = nullptr; ///< m: 1 / s_j
+    int* handle_offsets = nullptr;
+    int* handle_terms = nullptr;
+    int* node_entry_offsets = nullptr;
+    int* node_entry_handles = nullptr;
+    double* node_entry_weights = nullptr;
+    int* handle_entry_nodes = nullptr;
+    double* handle_entry_weights = nullptr;
+    double* inverse = nullptr;
+    // Segments of B^T y: linear handles' first, then quadratic ones'.
+    int* segment_handle = nullptr;
+    int* segment_begin = nullptr;
+    int* segment_end = nullptr;
+    int linear_segments = 0, quadratic_segments = 0;
+    int* partial_ranges = nullptr; ///< 2 m: handle j's partials
+    // State and workspace.
+    float4* warm = nullptr;
+    double* shares = nullptr;
+    double* x = nullptr;
+    double* xn = nullptr;
+    double* v = nullptr;
+    double* base = nullptr;
+    double* y = nullptr;
+    double* partials = nullptr;
+    double* reduced = nullptr;
+    double* q = nullptr;
+    double* pin_targets = nullptr;
+    // Ground planes: each one's nearest node at x_n or s, per block then in all.
+    int num_planes = 0;
+    int plane_blocks = 0;
+    double* planes = nullptr;
+    double* plane_block_minima = nullptr;
+    double* plane_minima = nullptr;
+    double* host_plane_minima = nullptr; ///< pinned
+    std::vector<double> minima;
+    // Pinned host staging.
+    double* host_state = nullptr; ///< 6 n: x then v
+    double* host_q = nullptr; ///< 3 k
+    // Graph of every iteration.
+    cudaGraphExec_t graph = nullptr;
+    // Profiling.
+    bool profiling = false;
+    cudaEvent_t marks[2] = { nullptr, nullptr };
+    EnginePhases phases;
+
+    void mark_begin()
+    {
+        if (profiling)
+            check(cudaEventRecord(marks[0], stream), "event");
+    }
+    void mark_end(double& phase)
+    {
+        if (!profiling)
+            return;
+        check(cudaEventRecord(marks[1], stream), "event");
+        check(cudaEventSynchronize(marks[1]), "event");
+        float ms = 0.0f;
+        check(cudaEventElapsedTime(&ms, marks[0], marks[1]), "event");
+        phase += 1e-3 * ms;
+    }
+
+    void launch_local()
+    {
+        local_kernel<<<blocks_for(tets), block_size, 0, stream>>>(
+            tets, weights, tet_nodes, dm_inverse, volumes, x, warm, shares);
+    }
+    void launch_gather()
+    {
+        gather_kernel<<<blocks_for(n), block_size, 0, stream>>>(
+            n, incident_offsets, incident_corners, shares, base, y);
+    }
+    void launch_transpose()
+    {
+        if (linear_segments > 0)
+            transpose_kernel<4><<<linear_segments, block_size, 0, stream>>>(
+                Segments { segment_handle, segment_begin, segment_end, linear_segments }, 0,
+                centers, scales, handle_entry_nodes, handle_entry_weights, rest, y, partials);
+        if (quadratic_segments > 0)
+            transpose_kernel<10><<<quadratic_segments, block_size, 0, stream>>>(
+                Segments { segment_handle + linear_segments, segment_begin + linear_segments,
+                    segment_end + linear_segments, quadratic_segments },
+                linear_segments, centers, scales, handle_entry_nodes, handle_entry_weights, rest, y,
+                partials);
+        transpose_sum_kernel<<<blocks_for(m * max_terms * 3), block_size, 0, stream>>>(
+            m, partial_ranges, handle_offsets, handle_terms, partials, reduced);
+    }
+    void launch_solve()
+    {
+        solve_kernel<<<(k * 32 + block_size - 1) / block_size, block_size, 0, stream>>>(
+            k, inverse, reduced, q);
+    }
+    void launch_reconstruct()
+    {
+        reconstruct_kernel<<<blocks_for(n), block_size, 0, stream>>>(n, centers, scales,
+            handle_offsets, handle_terms, node_entry_offsets, node_entry_handles,
+            node_entry_weights, rest, q, x);
+    }
+    void iterate()
+    {
+        mark_begin();
+        launch_local();
+        mark_end(phases.local);
+        mark_begin();
+        launch_gather();
+        mark_end(phases.gather);
+        mark_begin();
+        launch_transpose();
+        mark_end(phases.rhs);
+        mark_begin();
+        launch_solve();
+        mark_end(phases.solve);
+        check(cudaGetLastError(), "iteration kernels");
+    }
+    void reconstruct()
+    {
+        mark_begin();
+        launch_reconstruct();
+        mark_end(phases.reconstruct);
+        check(cudaGetLastError(), "reconstruction kernel");
+    }
+
+    void build_segments(const EngineModel& model);
+    void build_graph();
+    void release();
+};
+
+void Engine::Impl::build_segments(const EngineModel& model)
+{
+    // Each handle's entries in segments of at most segment_entries, linear handles first.
+    std::vector<int> handle, begin, end;
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int j = 0; j < m; ++j) {
+            if ((model.handle_terms[j] == max_terms) != (pass == 1))
+                continue;
+            const int first = model.handle_entry_offsets[j];
+            const int last = model.handle_entry_offsets[j + 1];
+            for (int b = first; b < last; b += segment_entries) {
+                handle.push_back(j);
+                begin.push_back(b);
+                end.push_back(b + segment_entries < last ? b + segment_entries : last);
+            }
+            if (pass == 0)
+                linear_segments += (last - first + segment_entries - 1) / segment_entries;
+            else
+                quadratic_segments += (last - first + segment_entries - 1) / segment_entries;
+        }
+    }
+    // Partials are stored in segment order, each handle's contiguous: its range, per handle.
+    std::vector<int> ranges(2 * static_cast<std::size_t>(m), 0);
+    for (int seg = static_cast<int>(handle.size()) - 1; seg >= 0; --seg) {
+        const int j = handle[seg];
+        if (ranges[2 * j + 1] == 0)
+            ranges[2 * j + 1] = seg + 1;
+        ranges[2 * j] = seg;
+    }
+    segment_handle = upload(handle, "segments");
+    segment_begin = upload(begin, "segments");
+    segment_end = upload(end, "segments");
+    partial_ranges = upload(ranges, "segments");
+    partials = allocate<double>(handle.size() * max_terms * 3, "partials");
+}
+
+void Engine::Impl::build_graph()
+{
+    cudaGraph_t captured = nullptr;
+    check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "graph capture");
+    for (int it = 0; it < iterations; ++it) {
+        launch_local();
+        launch_gather();
+        launch_transpose();
+        launch_solve();
+        launch_reconstruct();
+    }
+    check(cudaStreamEndCapture(stream, &captured), "graph capture");
+    check(cudaGraphInstantiate(&graph, captured, 0), "graph instantiate");
+    check(cudaGraphDestroy(captured), "graph");
+}
+
+void Engine::Impl::release()
+{
+    if (graph)
+        cudaGraphExecDestroy(graph);
+    for (cudaEvent_t& e : marks)
+        if (e)
+            cudaEventDestroy(e);
+    void* buffers[] = { tet_nodes, dm_inverse, volumes, incident_offsets, incident_corners, rest,
+        mass_h2, rest_system, pin_nodes, centers, scales, handle_offsets, handle_terms,
+        node_entry_offsets, node_entry_handles, node_entry_weights, handle_entry_nodes,
+        handle_entry_weights, inverse, segment_handle, segment_begin, segment_end, partial_ranges,
+        warm, shares, x, xn, v, base, y, partials, reduced, q, pin_targets };
+    for (void* b : buffers)
+        if (b)
+            cudaFree(b);
+    if (host_state)
+        cudaFreeHost(host_state);
+    if (host_q)
+        cudaFreeHost(host_q);
+    if (host_plane_minima)
+        cudaFreeHost(host_plane_minima);
+    if (stream)
+        cudaStreamDestroy(stream);
+}
+
+Engine::Engine(const EngineModel& model)
+    : m_impl(std::make_unique<Impl>())
+{
+    Impl& d = *m_impl;
+    try {
+        d.n = model.nodes;
+        d.tets = model.tets;
+        d.k = model.columns;
+        d.m = model.handles;
+        d.pins = static_cast<int>(model.pin_nodes.size());
+        d.iterations = model.iterations;
+        d.weights = model.weights;
+        d.constants.h = model.time_step;
+        for (int c = 0; c < 3; ++c)
+            d.constants.gravity[c] = model.gravity[c];
+        d.constants.velocity_scale = (1.0 - model.damping) / model.time_step;
+        d.constants.pin_weight = model.pin_weight;
+        check(cudaStreamCreateWithFlags(&d.stream, cudaStreamNonBlocking), "stream");
+        for (cudaEvent_t& e : d.marks)
+            check(cudaEventCreate(&e), "event");
+        std::vector<int4> nodes(static_cast<std::size_t>(d.tets));
+        for (int e = 0; e < d.tets; ++e)
+            nodes[e] = make_int4(model.tet_nodes[4 * e], model.tet_nodes[4 * e + 1],
+                model.tet_nodes[4 * e + 2], model.tet_nodes[4 * e + 3]);
+        d.tet_nodes = upload(nodes, "tets");
+        std::vector<double> dm(9 * static_cast<std::size_t>(d.tets));
+        for (int e = 0; e < d.tets; ++e)
+            for (int j = 0; j < 9; ++j)
+                dm[static_cast<std::size_t>(j) * d.tets + e] = model.dm_inverse[9 * e + j];
+        d.dm_inverse = upload(dm, "Dm^-1");
+        d.volumes = upload(model.volumes, "volumes");
+        d.incident_offsets = upload(model.incident_offsets, "incidence");
+        d.incident_corners = upload(model.incident_corners, "incidence");
+        d.rest = upload(model.rest, "rest positions");
+        d.mass_h2 = upload(model.mass_over_h2, "masses");
+        d.rest_system = upload(model.rest_system, "A X");
+        d.pin_nodes = upload(model.pin_nodes, "pins");
+        d.centers = upload(model.handle_centers, "handles");
+        d.scales = upload(model.handle_inverse_scales, "handles");
+        d.handle_offsets = upload(model.handle_offsets, "handles");
+        d.handle_terms = upload(model.handle_terms, "handles");
+        d.node_entry_offsets = upload(model.node_entry_offsets, "basis");
+        d.node_entry_handles = upload(model.node_entry_handles, "basis");
+        d.node_entry_weights = upload(model.node_entry_weights, "basis");
+        d.handle_entry_nodes = upload(model.handle_entry_nodes, "basis");
+        d.handle_entry_weights = upload(model.handle_entry_weights, "basis");
+        d.inverse = upload(model.inverse, "S^-1");
+        d.build_segments(model);
+        std::vector<float4> identity(
+            static_cast<std::size_t>(d.tets), make_float4(1.0f, 0.0f, 0.0f, 0.0f));
+        d.warm = upload(identity, "warm start");
+        d.shares = allocate<double>(12 * static_cast<std::size_t>(d.tets), "shares");
+        const std::size_t n3 = 3 * static_cast<std::size_t>(d.n);
+        d.x = allocate<double>(n3, "positions");
+        d.xn = allocate<double>(n3, "positions");
+        d.v = allocate<double>(n3, "velocities");
+        d.base = allocate<double>(n3, "right-hand side");
+        d.y = allocate<double>(n3, "right-hand side");
+        d.reduced = allocate<double>(3 * static_cast<std::size_t>(d.k), "reduced right-hand side");
+        d.q = allocate<double>(3 * static_cast<std::size_t>(d.k), "q");
+        d.pin_targets = allocate<double>(3 * static_cast<std::size_t>(d.pins), "pin targets");
+        check(cudaMallocHost(&d.host_state, 2 * n3 * sizeof(double)), "host staging");
+        check(cudaMallocHost(&d.host_q, 3 * static_cast<std::size_t>(d.k) * sizeof(double) + 8),
+            "host staging");
+        d.num_planes = static_cast<int>(model.planes.size() / 4);
+        d.plane_blocks = std::min(blocks_for(d.n), 256);
+        d.planes = upload(model.planes, "planes");
+        d.plane_block_minima = allocate<double>(
+            static_cast<std::size_t>(d.plane_blocks) * d.num_planes, "plane distances");
+        d.plane_minima = allocate<double>(d.num_planes, "plane distances");
+        check(cudaMallocHost(&d.host_plane_minima, (d.num_planes + 1) * sizeof(double)),
+            "host staging");
+        d.build_graph();
+        check(cudaStreamSynchronize(d.stream), "upload");
+    } catch (...) {
+        d.release();
+        throw;
+    }
+}
+
+Engine::~Engine()
+{
+    m_impl->release();
+}
+
+void Engine::upload_state(const double* positions, const double* velocities)
+{
+    Impl& d = *m_impl;
+    const std::size_t n3 = 3 * static_cast<std::size_t>(d.n);
+    // The staging buffer's last use (a download) has been waited for.
+    std::memcpy(d.host_state, positions, n3 * sizeof(double));
+    std::memcpy(d.host_state + n3, velocities, n3 * sizeof(double));
+    check(
+        cudaMemcpyAsync(d.xn, d.host_state, n3 * sizeof(double), cudaMemcpyHostToDevice, d.stream),
+        "state upload");
+    check(cudaMemcpyAsync(
+              d.v, d.host_state + n3, n3 * sizeof(double), cudaMemcpyHostToDevice, d.stream),
+        "state upload");
+    check(cudaStreamSynchronize(d.stream), "state upload");
+}
+
+void Engine::begin_step(const double* pins)
+{
+    Impl& d = *m_impl;
+    if (d.pins > 0)
+        check(cudaMemcpyAsync(d.pin_targets, pins, 3 * static_cast<std::size_t>(d.pins) * 8,
+                  cudaMemcpyHostToDevice, d.stream),
+            "pin upload");
+    d.mark_begin();
+    begin_kernel<<<blocks_for(d.n), block_size, 0, d.stream>>>(
+        d.n, d.constants, d.xn, d.v, d.mass_h2, d.rest_system, d.x, d.base);
+    if (d.pins > 0)
+        pin_kernel<<<blocks_for(d.pins), block_size, 0, d.stream>>>(
+            d.pins, d.constants.pin_weight, d.pin_nodes, d.pin_targets, d.base);
+    if (d.num_planes > 0) {
+        plane_kernel<<<d.plane_blocks, block_size, 0, d.stream>>>(
+            d.n, d.num_planes, d.planes, d.xn, d.x, d.plane_block_minima);
+        plane_reduce_kernel<<<1, block_size, 0, d.stream>>>(
+            d.plane_blocks, d.num_planes, d.plane_block_minima, d.plane_minima);
+        check(cudaMemcpyAsync(d.host_plane_minima, d.plane_minima,
+                  static_cast<std::size_t>(d.num_planes) * sizeof(double), cudaMemcpyDeviceToHost,
+                  d.stream),
+            "plane distances");
+    }
+    d.mark_end(d.phases.begin_end);
+    check(cudaGetLastError(), "step start kernels");
+    if (d.num_planes > 0) {
+        check(cudaStreamSynchronize(d.stream), "plane distances");
+        d.minima.assign(d.host_plane_minima, d.host_plane_minima + d.num_planes);
+    }
+}
+
+const std::vector<double>& Engine::plane_minima() const
+{
+    return m_impl->minima;
+}
+
+void Engine::iterate()
+{
+    m_impl->iterate();
+}
+
+void Engine::iterate_all()
+{
+    Impl& d = *m_impl;
+    if (d.profiling) {
+        for (int it = 0; it < d.iterations; ++it) {
+            d.iterate();
+            d.reconstruct();
+        }
+        return;
+    }
+    check(cudaGraphLaunch(d.graph, d.stream), "graph launch");
+}
+
+void Engine::download_q(double* q)
+{
+    Impl& d = *m_impl;
+    const std::size_t bytes = 3 * static_cast<std::size_t>(d.k) * sizeof(double);
+    check(cudaMemcpyAsync(d.host_q, d.q, bytes, cudaMemcpyDeviceToHost, d.stream), "q download");
+    check(cudaStreamSynchronize(d.stream), "q download");
+    std::memcpy(q, d.host_q, bytes);
+}
+
+void Engine::upload_q(const double* q)
+{
+    Impl& d = *m_impl;
+    const std::size_t bytes = 3 * static_cast<std::size_t>(d.k) * sizeof(double);
+    std::memcpy(d.host_q, q, bytes);
+    check(cudaMemcpyAsync(d.q, d.host_q, bytes, cudaMemcpyHostToDevice, d.stream), "q upload");
+    check(cudaStreamSynchronize(d.stream), "q upload");
+}
+
+void Engine::reconstruct()
+{
+    m_impl->reconstruct();
+}
+
+void Engine::download_positions(double* x)
+{
+    Impl& d = *m_impl;
+    const std::size_t bytes = 3 * static_cast<std::size_t>(d.n) * sizeof(double);
+    check(cudaMemcpyAsync(d.host_state, d.x, bytes, cudaMemcpyDeviceToHost, d.stream),
+        "positions download");
+    check(cudaStreamSynchronize(d.stream), "positions download");
+    std::memcpy(x, d.host_state, bytes);
+}
+
+void Engine::end_step()
+{
+    Impl& d = *m_impl;
+    const std::size_t n3 = 3 * static_cast<std::size_t>(d.n);
+    d.mark_begin();
+    end_kernel<<<blocks_for(static_cast<int>(n3)), block_size, 0, d.stream>>>(
+        static_cast<int>(n3), d.constants.velocity_scale, d.x, d.xn, d.v);
+    check(cudaMemcpyAsync(d.xn, d.x, n3 * sizeof(double), cudaMemcpyDeviceToDevice, d.stream),
+        "state copy");
+    d.mark_end(d.phases.begin_end);
+    check(cudaGetLastError(), "step end kernel");
+}
+
+void Engine::download_state(double* positions, double* velocities)
+{
+    Impl& d = *m_impl;
+    const std::size_t n3 = 3 * static_cast<std::size_t>(d.n);
+    check(
+        cudaMemcpyAsync(d.host_state, d.xn, n3 * sizeof(double), cudaMemcpyDeviceToHost, d.stream),
+        "state download");
+    check(cudaMemcpyAsync(
+              d.host_state + n3, d.v, n3 * sizeof(double), cudaMemcpyDeviceToHost, d.stream),
+        "state download");
+    check(cudaStreamSynchronize(d.stream), "state download");
+    std::memcpy(positions, d.host_state, n3 * sizeof(double));
+    std::memcpy(velocities, d.host_state + n3, n3 * sizeof(double));
+}
+
+void Engine::set_profiling(bool on)
+{
+    m_impl->profiling = on;
+}
+
+EnginePhases Engine::take_phases()
+{
+    EnginePhases out = m_impl->phases;
+    m_impl->phases = EnginePhases {};
+    return out;
+}
+
+std::string Engine::description() const
+{
+    int device = 0;
+    cudaDeviceProp props {};
+    if (cudaGetDevice(&device) != cudaSuccess
+        || cudaGetDeviceProperties(&props, device) != cudaSuccess)
+        return "cuda device";
+    char text[256];
+    std::snprintf(text, sizeof(text), "%s, %.0f GiB, compute capability %d.%d", props.name,
+        static_cast<double>(props.totalGlobalMem) / (1024.0 * 1024.0 * 1024.0), props.major,
+        props.minor);
+    return text;
+}
+
+std::string engine_unavailable_reason()
+{
+    int count = 0;
+    const cudaError_t status = cudaGetDeviceCount(&count);
+    if (status != cudaSuccess)
+        return std::string("no usable CUDA device (") + cudaGetErrorString(status) + ")";
+    if (count == 0)
+        return "no CUDA device found";
+    return "";
+}
+
+} // namespace mat::gpu
