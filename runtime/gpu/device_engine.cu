@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 
@@ -52,6 +53,47 @@ namespace {
         return (count + block_size - 1) / block_size;
     }
 
+// Programmatic dependent launch (Hopper, CUDA 12.3 and later, also inside graphs): a kernel of the
+// iteration chain may be launched while its predecessor finishes, and waits for it (all its
+// writes visible) at its first statement. It hides the launch latency between the chain's short
+// kernels, which on a 50k-tet body is a large part of an iteration. Older toolkits launch plainly.
+#if defined(CUDART_VERSION) && CUDART_VERSION >= 12030
+#define MAT_PDL 1
+#else
+#define MAT_PDL 0
+#endif
+
+    /// The predecessor's writes, before anything reads them (see MAT_PDL).
+    __device__ inline void wait_for_predecessor()
+    {
+#if MAT_PDL && defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+        cudaGridDependencySynchronize();
+#endif
+    }
+
+    /// kernel<<<grid, block_size, 0, stream>>>(args...), allowed to overlap its predecessor's
+    /// end where the toolkit has programmatic dependent launch.
+    template <typename... Params, typename... Args>
+    void launch(void (*kernel)(Params...), int grid, cudaStream_t stream, Args... args)
+    {
+        if (grid <= 0)
+            return;
+#if MAT_PDL
+        cudaLaunchConfig_t config {};
+        config.gridDim = dim3(static_cast<unsigned>(grid));
+        config.blockDim = dim3(block_size);
+        config.stream = stream;
+        cudaLaunchAttribute attribute {};
+        attribute.id = cudaLaunchAttributeProgrammaticStreamSerialization;
+        attribute.val.programmaticStreamSerializationAllowed = 1;
+        config.attrs = &attribute;
+        config.numAttrs = 1;
+        check(cudaLaunchKernelEx(&config, kernel, static_cast<Params>(args)...), "kernel launch");
+#else
+        kernel<<<grid, block_size, 0, stream>>>(static_cast<Params>(args)...);
+#endif
+    }
+
     // ---- kernels ----------------------------------------------------------------------------
 
     struct StepConstants {
@@ -87,12 +129,16 @@ namespace {
             base[3 * nodes[p] + c] += weight * targets[3 * p + c];
     }
 
-    /// One tet per thread: F, its weighted projection, the corners' shares.
-    __global__ void local_kernel(int tets, ProjectionWeights weights,
-        const int4* __restrict__ tet_nodes, const double* __restrict__ dm_inverse,
-        const double* __restrict__ volumes, const double* __restrict__ x, float4* __restrict__ warm,
-        double* __restrict__ shares)
+    /// One tet per thread: F, its weighted projection, the corners' shares. `MinBlocks`: blocks
+    /// per SM it is compiled for, a register cap (3: uncapped, 154 registers with CUDA 13; 4:
+    /// 128 registers and a few spills; 5: 102 and more). The engine picks one (Impl::local_blocks).
+    template <int MinBlocks>
+    __global__ void __launch_bounds__(block_size, MinBlocks)
+        local_kernel(int tets, ProjectionWeights weights, const int4* __restrict__ tet_nodes,
+            const double* __restrict__ dm_inverse, const double* __restrict__ volumes,
+            const double* __restrict__ x, float4* __restrict__ warm, double* __restrict__ shares)
     {
+        wait_for_predecessor();
         const int e = blockIdx.x * blockDim.x + threadIdx.x;
         if (e >= tets)
             return;
@@ -120,24 +166,43 @@ namespace {
                 out[3 * c + d] = share[c][d];
     }
 
-    /// One node per thread: y = base + its corners' shares, in corner order.
+    /// Threads per node in the per-node kernels: their sums split four ways, then added in a
+    /// fixed butterfly (commutative at each level: every lane gets the same bits).
+    constexpr int node_group = 4;
+
+    __device__ inline double group_sum(double value)
+    {
+        value += __shfl_xor_sync(0xffffffffu, value, 1);
+        value += __shfl_xor_sync(0xffffffffu, value, 2);
+        return value;
+    }
+
+    int node_blocks(int n)
+    {
+        return (n * node_group + block_size - 1) / block_size;
+    }
+
+    /// node_group threads per node: y = base + its corners' shares (corner j to thread j mod 4).
     __global__ void gather_kernel(int n, const int* __restrict__ offsets,
         const int* __restrict__ corners, const double* __restrict__ shares,
         const double* __restrict__ base, double* __restrict__ y)
     {
-        const int i = blockIdx.x * blockDim.x + threadIdx.x;
-        if (i >= n)
-            return;
+        wait_for_predecessor();
+        const int thread = blockIdx.x * blockDim.x + threadIdx.x;
+        const int i = thread / node_group, sub = thread % node_group;
         double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-        for (int j = offsets[i]; j < offsets[i + 1]; ++j) {
-            const double* share = shares + 3 * static_cast<long long>(corners[j]);
-            s0 += share[0];
-            s1 += share[1];
-            s2 += share[2];
-        }
-        y[3 * i] = base[3 * i] + s0;
-        y[3 * i + 1] = base[3 * i + 1] + s1;
-        y[3 * i + 2] = base[3 * i + 2] + s2;
+        if (i < n)
+            for (int j = offsets[i] + sub; j < offsets[i + 1]; j += node_group) {
+                const double* share = shares + 3 * static_cast<long long>(corners[j]);
+                s0 += share[0];
+                s1 += share[1];
+                s2 += share[2];
+            }
+        s0 = group_sum(s0);
+        s1 = group_sum(s1);
+        s2 = group_sum(s2);
+        if (i < n && sub < 3)
+            y[3 * i + sub] = base[3 * i + sub] + (sub == 0 ? s0 : sub == 1 ? s1 : s2);
     }
 
     struct Segments {
@@ -156,13 +221,18 @@ namespace {
 
     /// One block per segment of one handle's entries: sum_e w_e p_t(y_e) y_{node e}, for the
     /// handle's `Terms` monomials and three coordinates, into the segment's partial.
+    /// The last block of a handle to finish (counted in `tickets`, which it resets) adds the
+    /// handle's partials in segment order into its rows of `reduced`: which block that is varies,
+    /// the sum does not.
     template <int Terms>
     __global__ void transpose_kernel(Segments segments, int first_partial,
         const double* __restrict__ centers, const double* __restrict__ scales,
         const int* __restrict__ entry_nodes, const double* __restrict__ entry_weights,
-        const double* __restrict__ rest, const double* __restrict__ y,
-        double* __restrict__ partials)
+        const double* __restrict__ rest, const double* __restrict__ y, double* partials,
+        const int* __restrict__ partial_ranges, const int* __restrict__ offsets,
+        unsigned int* tickets, double* __restrict__ reduced)
     {
+        wait_for_predecessor();
         const int seg = blockIdx.x;
         if (seg >= segments.count)
             return;
@@ -203,28 +273,30 @@ namespace {
             partials[static_cast<long long>(first_partial + seg) * (max_terms * 3) + threadIdx.x]
                 = sum;
         }
-    }
-
-    /// One thread per (handle, term, coordinate): the handle's segments' partials in order
-    /// (handle j's are [partial_ranges[2 j], partial_ranges[2 j + 1])).
-    __global__ void transpose_sum_kernel(int handles, const int* __restrict__ partial_ranges,
-        const int* __restrict__ offsets, const int* __restrict__ terms,
-        const double* __restrict__ partials, double* __restrict__ reduced)
-    {
-        const int id = blockIdx.x * blockDim.x + threadIdx.x;
-        const int j = id / (max_terms * 3), tc = id % (max_terms * 3);
-        if (j >= handles || tc >= terms[j] * 3)
+        __threadfence();
+        __syncthreads();
+        __shared__ bool last;
+        const int first = partial_ranges[2 * j], count = partial_ranges[2 * j + 1] - first;
+        if (threadIdx.x == 0)
+            last = atomicAdd(&tickets[j], 1u) == static_cast<unsigned int>(count - 1);
+        __syncthreads();
+        if (!last)
             return;
-        double sum = 0.0;
-        for (int s = partial_ranges[2 * j]; s < partial_ranges[2 * j + 1]; ++s)
-            sum += partials[static_cast<long long>(s) * (max_terms * 3) + tc];
-        reduced[3 * offsets[j] + tc] = sum;
+        if (threadIdx.x < Terms * 3) {
+            double sum = 0.0;
+            for (int p = first; p < first + count; ++p) // other blocks' writes: past L1
+                sum += __ldcg(partials + static_cast<long long>(p) * (max_terms * 3) + threadIdx.x);
+            reduced[3 * offsets[j] + threadIdx.x] = sum;
+        }
+        if (threadIdx.x == 0)
+            tickets[j] = 0;
     }
 
     /// One warp per row of S^-1: q_row = S^-1_row (B^T y), three right-hand sides.
     __global__ void solve_kernel(int k, const double* __restrict__ inverse,
         const double* __restrict__ reduced, double* __restrict__ q)
     {
+        wait_for_predecessor();
         const int row = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
         const int lane = threadIdx.x & 31;
         if (row >= k)
@@ -247,38 +319,45 @@ namespace {
         }
     }
 
-    /// One node per thread: x = X + sum over its handles of w p(y) q.
+    /// node_group threads per node: x = X + sum over its handles of w p(y) q (entry e to thread
+    /// e mod 4).
     __global__ void reconstruct_kernel(int n, const double* __restrict__ centers,
         const double* __restrict__ scales, const int* __restrict__ handle_offsets,
         const int* __restrict__ handle_terms, const int* __restrict__ entry_offsets,
         const int* __restrict__ entry_handles, const double* __restrict__ entry_weights,
         const double* __restrict__ rest, const double* __restrict__ q, double* __restrict__ x)
     {
-        const int i = blockIdx.x * blockDim.x + threadIdx.x;
-        if (i >= n)
-            return;
-        const double rx = rest[3 * i], ry = rest[3 * i + 1], rz = rest[3 * i + 2];
+        wait_for_predecessor();
+        const int thread = blockIdx.x * blockDim.x + threadIdx.x;
+        const int i = thread / node_group, sub = thread % node_group;
         double x0 = 0.0, x1 = 0.0, x2 = 0.0;
-        for (int e = entry_offsets[i]; e < entry_offsets[i + 1]; ++e) {
-            const int j = entry_handles[e];
-            const double w = entry_weights[e];
-            const double inverse_scale = scales[j];
-            double p[max_terms];
-            handle_monomials((rx - centers[3 * j]) * inverse_scale,
-                (ry - centers[3 * j + 1]) * inverse_scale,
-                (rz - centers[3 * j + 2]) * inverse_scale, p);
-            const double* qj = q + 3 * handle_offsets[j];
-            const int terms = handle_terms[j];
-            for (int t = 0; t < terms; ++t) {
-                const double wp = w * p[t];
-                x0 += wp * qj[3 * t];
-                x1 += wp * qj[3 * t + 1];
-                x2 += wp * qj[3 * t + 2];
+        if (i < n) {
+            const double rx = rest[3 * i], ry = rest[3 * i + 1], rz = rest[3 * i + 2];
+            for (int e = entry_offsets[i] + sub; e < entry_offsets[i + 1]; e += node_group) {
+                const int j = entry_handles[e];
+                const double w = entry_weights[e];
+                const double inverse_scale = scales[j];
+                double p[max_terms];
+                handle_monomials((rx - centers[3 * j]) * inverse_scale,
+                    (ry - centers[3 * j + 1]) * inverse_scale,
+                    (rz - centers[3 * j + 2]) * inverse_scale, p);
+                const double* qj = q + 3 * handle_offsets[j];
+                const int terms = handle_terms[j];
+#pragma unroll
+                for (int t = 0; t < max_terms; ++t) // unrolled: p stays in registers
+                    if (t < terms) {
+                        const double wp = w * p[t];
+                        x0 += wp * qj[3 * t];
+                        x1 += wp * qj[3 * t + 1];
+                        x2 += wp * qj[3 * t + 2];
+                    }
             }
         }
-        x[3 * i] = rx + x0;
-        x[3 * i + 1] = ry + x1;
-        x[3 * i + 2] = rz + x2;
+        x0 = group_sum(x0);
+        x1 = group_sum(x1);
+        x2 = group_sum(x2);
+        if (i < n && sub < 3)
+            x[3 * i + sub] = rest[3 * i + sub] + (sub == 0 ? x0 : sub == 1 ? x1 : x2);
     }
 
     /// Per block and plane, the smallest n . x - n . p over its nodes at x_n and at s (planes: 4
@@ -347,6 +426,9 @@ namespace {
 
 struct Engine::Impl {
     int n = 0, tets = 0, k = 0, m = 0, pins = 0, iterations = 1;
+    /// The local kernel's register cap (local_kernel's MinBlocks): 4, or the environment's
+    /// MAT_CUDA_LOCAL_BLOCKS (3, 4 or 5), for tuning on a new GPU.
+    int local_blocks = 4;
     StepConstants constants {};
     ProjectionWeights weights;
     cudaStream_t stream = nullptr;
@@ -376,6 +458,7 @@ struct Engine::Impl {
     int* segment_end = nullptr;
     int linear_segments = 0, quadratic_segments = 0;
     int* partial_ranges = nullptr; ///< 2 m: handle j's partials
+    unsigned int* tickets = nullptr; ///< m: blocks of handle j done (0 between launches)
     // State and workspace.
     float4* warm = nullptr;
     double* shares = nullptr;
@@ -424,39 +507,39 @@ struct Engine::Impl {
 
     void launch_local()
     {
-        local_kernel<<<blocks_for(tets), block_size, 0, stream>>>(
-            tets, weights, tet_nodes, dm_inverse, volumes, x, warm, shares);
+        const int grid = blocks_for(tets);
+        const auto kernel = local_blocks == 3 ? local_kernel<3>
+            : local_blocks == 5               ? local_kernel<5>
+                                              : local_kernel<4>;
+        launch(
+            kernel, grid, stream, tets, weights, tet_nodes, dm_inverse, volumes, x, warm, shares);
     }
     void launch_gather()
     {
-        gather_kernel<<<blocks_for(n), block_size, 0, stream>>>(
-            n, incident_offsets, incident_corners, shares, base, y);
+        launch(gather_kernel, node_blocks(n), stream, n, incident_offsets, incident_corners, shares,
+            base, y);
     }
     void launch_transpose()
     {
-        if (linear_segments > 0)
-            transpose_kernel<4><<<linear_segments, block_size, 0, stream>>>(
-                Segments { segment_handle, segment_begin, segment_end, linear_segments }, 0,
-                centers, scales, handle_entry_nodes, handle_entry_weights, rest, y, partials);
-        if (quadratic_segments > 0)
-            transpose_kernel<10><<<quadratic_segments, block_size, 0, stream>>>(
-                Segments { segment_handle + linear_segments, segment_begin + linear_segments,
-                    segment_end + linear_segments, quadratic_segments },
-                linear_segments, centers, scales, handle_entry_nodes, handle_entry_weights, rest, y,
-                partials);
-        transpose_sum_kernel<<<blocks_for(m * max_terms * 3), block_size, 0, stream>>>(
-            m, partial_ranges, handle_offsets, handle_terms, partials, reduced);
+        launch(transpose_kernel<4>, linear_segments, stream,
+            Segments { segment_handle, segment_begin, segment_end, linear_segments }, 0, centers,
+            scales, handle_entry_nodes, handle_entry_weights, rest, y, partials, partial_ranges,
+            handle_offsets, tickets, reduced);
+        launch(transpose_kernel<10>, quadratic_segments, stream,
+            Segments { segment_handle + linear_segments, segment_begin + linear_segments,
+                segment_end + linear_segments, quadratic_segments },
+            linear_segments, centers, scales, handle_entry_nodes, handle_entry_weights, rest, y,
+            partials, partial_ranges, handle_offsets, tickets, reduced);
     }
     void launch_solve()
     {
-        solve_kernel<<<(k * 32 + block_size - 1) / block_size, block_size, 0, stream>>>(
-            k, inverse, reduced, q);
+        launch(
+            solve_kernel, (k * 32 + block_size - 1) / block_size, stream, k, inverse, reduced, q);
     }
     void launch_reconstruct()
     {
-        reconstruct_kernel<<<blocks_for(n), block_size, 0, stream>>>(n, centers, scales,
-            handle_offsets, handle_terms, node_entry_offsets, node_entry_handles,
-            node_entry_weights, rest, q, x);
+        launch(reconstruct_kernel, node_blocks(n), stream, n, centers, scales, handle_offsets,
+            handle_terms, node_entry_offsets, node_entry_handles, node_entry_weights, rest, q, x);
     }
     void iterate()
     {
@@ -521,6 +604,7 @@ void Engine::Impl::build_segments(const EngineModel& model)
     segment_end = upload(end, "segments");
     partial_ranges = upload(ranges, "segments");
     partials = allocate<double>(handle.size() * max_terms * 3, "partials");
+    tickets = allocate<unsigned int>(static_cast<std::size_t>(m), "partials");
 }
 
 void Engine::Impl::build_graph()
@@ -535,7 +619,7 @@ void Engine::Impl::build_graph()
         launch_reconstruct();
     }
     check(cudaStreamEndCapture(stream, &captured), "graph capture");
-    check(cudaGraphInstantiate(&graph, captured, 0), "graph instantiate");
+    check(cudaGraphInstantiateWithFlags(&graph, captured, 0), "graph instantiate");
     check(cudaGraphDestroy(captured), "graph");
 }
 
@@ -575,6 +659,8 @@ Engine::Engine(const EngineModel& model)
         d.m = model.handles;
         d.pins = static_cast<int>(model.pin_nodes.size());
         d.iterations = model.iterations;
+        if (const char* blocks = std::getenv("MAT_CUDA_LOCAL_BLOCKS"))
+            d.local_blocks = std::atoi(blocks);
         d.weights = model.weights;
         d.constants.h = model.time_step;
         for (int c = 0; c < 3; ++c)

@@ -32,6 +32,9 @@ struct ProjectionWeights {
     double rotation = 1.0; ///< w_r
     double volume = 0.0; ///< w_v
     double limit = 0.0; ///< w_l
+    /// The exact decomposition (double Jacobi and QR), or the fast one (float eigenvectors, as
+    /// the CPU path's default; see fast_signed_svd).
+    bool exact = false;
 };
 
 MAT_HD double dmin(double a, double b)
@@ -45,6 +48,25 @@ MAT_HD double dmax(double a, double b)
 MAT_HD double dabs(double a)
 {
     return a < 0.0 ? -a : a;
+}
+/// 1 / sqrt(a): the GPU's reciprocal square root (one instruction sequence instead of a square
+/// root and a division), the plain quotient on the host.
+MAT_HD double inverse_sqrt(double a)
+{
+#if defined(__CUDA_ARCH__)
+    return ::rsqrt(a);
+#else
+    return 1.0 / std::sqrt(a);
+#endif
+}
+/// 1 / sqrt(a) in float (the GPU's approximate reciprocal square root instruction).
+MAT_HD float inverse_sqrtf(float a)
+{
+#if defined(__CUDA_ARCH__)
+    return ::rsqrtf(a);
+#else
+    return 1.0f / std::sqrt(a);
+#endif
 }
 /// False for infinities and NaN (x - x is NaN for them).
 MAT_HD bool finite(double a)
@@ -62,7 +84,7 @@ MAT_HD void quaternion_to_matrix(const float (&quat)[4], double (&v)[3][3])
         w = 1.0;
         x = y = z = 0.0;
     } else {
-        const double inv = 1.0 / ::sqrt(norm2);
+        const double inv = inverse_sqrt(norm2);
         w *= inv;
         x *= inv;
         y *= inv;
@@ -86,29 +108,29 @@ MAT_HD void matrix_to_quaternion(const double (&v)[3][3], float (&quat)[4])
     const double trace = v[0][0] + v[1][1] + v[2][2];
     double w, x, y, z;
     if (trace >= v[0][0] && trace >= v[1][1] && trace >= v[2][2]) {
-        const double r = ::sqrt(dmax(1.0 + trace, 0.0)) * 2.0;
-        w = 0.25 * r;
-        x = (v[2][1] - v[1][2]) / r;
-        y = (v[0][2] - v[2][0]) / r;
-        z = (v[1][0] - v[0][1]) / r;
+        const double r = 0.5 * inverse_sqrt(dmax(1.0 + trace, 1e-300)); // 1 / (4 w)
+        w = 0.25 / r;
+        x = (v[2][1] - v[1][2]) * r;
+        y = (v[0][2] - v[2][0]) * r;
+        z = (v[1][0] - v[0][1]) * r;
     } else if (v[0][0] >= v[1][1] && v[0][0] >= v[2][2]) {
-        const double r = ::sqrt(dmax(1.0 + v[0][0] - v[1][1] - v[2][2], 0.0)) * 2.0;
-        w = (v[2][1] - v[1][2]) / r;
-        x = 0.25 * r;
-        y = (v[0][1] + v[1][0]) / r;
-        z = (v[0][2] + v[2][0]) / r;
+        const double r = 0.5 * inverse_sqrt(dmax(1.0 + v[0][0] - v[1][1] - v[2][2], 1e-300));
+        w = (v[2][1] - v[1][2]) * r;
+        x = 0.25 / r;
+        y = (v[0][1] + v[1][0]) * r;
+        z = (v[0][2] + v[2][0]) * r;
     } else if (v[1][1] >= v[2][2]) {
-        const double r = ::sqrt(dmax(1.0 + v[1][1] - v[0][0] - v[2][2], 0.0)) * 2.0;
-        w = (v[0][2] - v[2][0]) / r;
-        x = (v[0][1] + v[1][0]) / r;
-        y = 0.25 * r;
-        z = (v[1][2] + v[2][1]) / r;
+        const double r = 0.5 * inverse_sqrt(dmax(1.0 + v[1][1] - v[0][0] - v[2][2], 1e-300));
+        w = (v[0][2] - v[2][0]) * r;
+        x = (v[0][1] + v[1][0]) * r;
+        y = 0.25 / r;
+        z = (v[1][2] + v[2][1]) * r;
     } else {
-        const double r = ::sqrt(dmax(1.0 + v[2][2] - v[0][0] - v[1][1], 0.0)) * 2.0;
-        w = (v[1][0] - v[0][1]) / r;
-        x = (v[0][2] + v[2][0]) / r;
-        y = (v[1][2] + v[2][1]) / r;
-        z = 0.25 * r;
+        const double r = 0.5 * inverse_sqrt(dmax(1.0 + v[2][2] - v[0][0] - v[1][1], 1e-300));
+        w = (v[1][0] - v[0][1]) * r;
+        x = (v[0][2] + v[2][0]) * r;
+        y = (v[1][2] + v[2][1]) * r;
+        z = 0.25 / r;
     }
     quat[0] = static_cast<float>(w);
     quat[1] = static_cast<float>(x);
@@ -125,7 +147,7 @@ MAT_HD void jacobi_rotation(double (&a)[3][3], double (&v)[3][3], int p, int q)
         return;
     const double tau = (a[q][q] - a[p][p]) / (2.0 * apq);
     const double t = (tau >= 0.0 ? 1.0 : -1.0) / (dabs(tau) + ::sqrt(1.0 + tau * tau));
-    const double c = 1.0 / ::sqrt(1.0 + t * t);
+    const double c = inverse_sqrt(1.0 + t * t);
     const double s = t * c;
     // a' = G^T a G with G = I except G_pp = G_qq = c, G_pq = s, G_qp = -s.
     const int r = 3 - p - q; // the third index
@@ -211,10 +233,11 @@ MAT_HD void signed_svd(
     for (int g = 0; g < 3; ++g) {
         const int p = rows_p[g], q = rows_q[g], col = p; // zero r[q][col] against r[p][col]
         const double x = r[p][col], y = r[q][col];
-        const double h = ::sqrt(x * x + y * y);
-        if (h == 0.0)
+        const double h2 = x * x + y * y;
+        if (h2 == 0.0)
             continue;
-        const double c = x / h, sn = y / h;
+        const double inv_h = inverse_sqrt(h2);
+        const double c = x * inv_h, sn = y * inv_h;
         for (int j = 0; j < 3; ++j) {
             const double rp = r[p][j], rq = r[q][j];
             r[p][j] = c * rp + sn * rq;
@@ -229,6 +252,109 @@ MAT_HD void signed_svd(
     s[0] = r[0][0];
     s[1] = r[1][1];
     s[2] = r[2][2];
+}
+
+/// One float Jacobi rotation zeroing a[p][q] (as jacobi_rotation), accumulated into v.
+MAT_HD void jacobi_rotation_float(float (&a)[3][3], float (&v)[3][3], int p, int q)
+{
+    const float apq = a[p][q];
+    if (apq == 0.0f)
+        return;
+    const float tau = (a[q][q] - a[p][p]) / (2.0f * apq);
+    const float t = (tau >= 0.0f ? 1.0f : -1.0f) / (::fabsf(tau) + ::sqrtf(1.0f + tau * tau));
+    const float c = inverse_sqrtf(1.0f + t * t);
+    const float s = t * c;
+    const int r = 3 - p - q;
+    a[p][p] -= t * apq;
+    a[q][q] += t * apq;
+    a[p][q] = a[q][p] = 0.0f;
+    const float arp = a[r][p], arq = a[r][q];
+    a[r][p] = a[p][r] = c * arp - s * arq;
+    a[r][q] = a[q][r] = s * arp + c * arq;
+    for (int i = 0; i < 3; ++i) {
+        const float vip = v[i][p], viq = v[i][q];
+        v[i][p] = c * vip - s * viq;
+        v[i][q] = s * vip + c * viq;
+    }
+}
+
+/// The fast signed SVD, the CPU path's default decomposition (runtime/pd/elastic_term.hpp): the
+/// eigenvectors of F^T F by float Jacobi sweeps from the warm start (until the off-diagonal is
+/// below 1e-5 of the trace, at most 4 sweeps), sorted, kept as the quaternion `warm`; V from it
+/// in double (orthogonal to double precision), B = F V, s_i = |b_i|, U = B S^-1, the last
+/// column and singular value negated for an inverted F. Exact at rest and under rigid motion
+/// whatever V's error (F = B V^T exactly), otherwise off by about 1e-5 of the singular values'
+/// spread. Returns false, for signed_svd to decompose F instead (from the updated warm start),
+/// when the tet is flat or collapsed (smallest |b_i| below 5% of the largest) or U's columns are
+/// farther than 2e-5 from orthogonal: the CPU path's two fallbacks.
+MAT_HD bool fast_signed_svd(
+    const double (&f)[3][3], float (&warm)[4], double (&u)[3][3], double (&s)[3], double (&v)[3][3])
+{
+    quaternion_to_matrix(warm, v);
+    float vf[3][3], a[3][3];
+    double b[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            vf[i][j] = static_cast<float>(v[i][j]);
+            b[i][j] = f[i][0] * v[0][j] + f[i][1] * v[1][j] + f[i][2] * v[2][j];
+        }
+    for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j)
+            a[i][j] = a[j][i]
+                = static_cast<float>(b[0][i] * b[0][j] + b[1][i] * b[1][j] + b[2][i] * b[2][j]);
+    const float tolerance = 3e-7f * (::fabsf(a[0][0]) + ::fabsf(a[1][1]) + ::fabsf(a[2][2]));
+    for (int sweep = 0; sweep < 4; ++sweep) {
+        if (!(::fmaxf(::fmaxf(::fabsf(a[0][1]), ::fabsf(a[0][2])), ::fabsf(a[1][2])) > tolerance))
+            break;
+        jacobi_rotation_float(a, vf, 0, 1);
+        jacobi_rotation_float(a, vf, 0, 2);
+        jacobi_rotation_float(a, vf, 1, 2);
+    }
+    // Columns by decreasing eigenvalue, det V = +1 kept (a swap negates one column).
+    float e[3] = { a[0][0], a[1][1], a[2][2] };
+    const auto swap_columns = [&](int p, int q) {
+        const float t = e[p];
+        e[p] = e[q];
+        e[q] = t;
+        for (int i = 0; i < 3; ++i) {
+            const float vp = vf[i][p];
+            vf[i][p] = -vf[i][q];
+            vf[i][q] = vp;
+        }
+    };
+    if (e[0] < e[1])
+        swap_columns(0, 1);
+    if (e[0] < e[2])
+        swap_columns(0, 2);
+    if (e[1] < e[2])
+        swap_columns(1, 2);
+    double vd[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            vd[i][j] = vf[i][j];
+    matrix_to_quaternion(vd, warm);
+    quaternion_to_matrix(warm, v);
+    double norm[3];
+    for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i)
+            b[i][j] = f[i][0] * v[0][j] + f[i][1] * v[1][j] + f[i][2] * v[2][j];
+        norm[j] = ::sqrt(b[0][j] * b[0][j] + b[1][j] * b[1][j] + b[2][j] * b[2][j]);
+    }
+    if (!(norm[2] >= 0.05 * norm[0]) || !(norm[1] >= 0.05 * norm[0]))
+        return false; // flat or collapsed (or not finite)
+    const double det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
+        - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+        + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    for (int j = 0; j < 3; ++j) {
+        s[j] = j == 2 && det < 0.0 ? -norm[j] : norm[j];
+        const double inv = 1.0 / s[j];
+        for (int i = 0; i < 3; ++i)
+            u[i][j] = b[i][j] * inv;
+    }
+    const double c01 = u[0][0] * u[0][1] + u[1][0] * u[1][1] + u[2][0] * u[2][1];
+    const double c02 = u[0][0] * u[0][2] + u[1][0] * u[1][2] + u[2][0] * u[2][2];
+    const double c12 = u[0][1] * u[0][2] + u[1][1] * u[1][2] + u[2][1] * u[2][2];
+    return dmax(dmax(dabs(c01), dabs(c02)), dabs(c12)) <= 2e-5;
 }
 
 /// The volume projection's diagonal: the point d nearest s with d0 d1 d2 = target (> 0), by
@@ -259,9 +385,10 @@ MAT_HD void volume_diagonal(const double (&s)[3], double target, double (&d)[3])
         const double h01 = lambda * d[2], h02 = lambda * d[1], h12 = lambda * d[0];
         const double c00 = 1.0 - h12 * h12, c01 = -(h01 - h02 * h12), c02 = h01 * h12 - h02;
         const double c11 = 1.0 - h02 * h02, c12 = -(h12 - h01 * h02), c22 = 1.0 - h01 * h01;
-        const double det = c00 + h01 * c01 + h02 * c02;
-        const double hi[3][3] = { { c00 / det, c01 / det, c02 / det },
-            { c01 / det, c11 / det, c12 / det }, { c02 / det, c12 / det, c22 / det } };
+        const double inv_det = 1.0 / (c00 + h01 * c01 + h02 * c02);
+        const double hi[3][3] = { { c00 * inv_det, c01 * inv_det, c02 * inv_det },
+            { c01 * inv_det, c11 * inv_det, c12 * inv_det },
+            { c02 * inv_det, c12 * inv_det, c22 * inv_det } };
         double hg[3], hr[3];
         for (int i = 0; i < 3; ++i) {
             hg[i] = hi[i][0] * g[0] + hi[i][1] * g[1] + hi[i][2] * g[2];
@@ -304,7 +431,8 @@ MAT_HD double weighted_projection(
     const double (&f)[3][3], const ProjectionWeights& w, float (&warm)[4], double (&target)[3][3])
 {
     double u[3][3], s[3], v[3][3];
-    signed_svd(f, warm, u, s, v);
+    if (w.exact || !fast_signed_svd(f, warm, u, s, v))
+        signed_svd(f, warm, u, s, v);
     double diag[3];
     double energy = 0.0;
     for (int i = 0; i < 3; ++i) {

@@ -15,7 +15,7 @@ namespace {
 
     /// The model in the engine's layout (runtime/gpu/device_engine.hpp).
     gpu::EngineModel engine_model(const Model& model, const Vec3& gravity, double damping,
-        int iterations, const std::vector<PlaneCollider>& planes)
+        int iterations, const std::vector<PlaneCollider>& planes, bool exact)
     {
         gpu::EngineModel out;
         const Index n = model.num_nodes(), tets = model.num_tets(), k = model.num_columns();
@@ -35,6 +35,7 @@ namespace {
         out.weights.rotation = model.strain_weight();
         out.weights.volume = model.volume_weight();
         out.weights.limit = model.strain_limit_weight();
+        out.weights.exact = exact;
 
         out.tet_nodes.resize(4 * static_cast<std::size_t>(tets));
         out.dm_inverse.resize(9 * static_cast<std::size_t>(tets));
@@ -122,7 +123,7 @@ std::string cuda_unavailable_reason()
 }
 
 DeviceSemiStep::DeviceSemiStep(const Model& model, const Vec3& gravity, double damping,
-    int iterations, const std::vector<PlaneCollider>& planes)
+    int iterations, const std::vector<PlaneCollider>& planes, bool exact_projections)
 {
     const std::string reason = cuda_unavailable_reason();
     if (!reason.empty())
@@ -131,7 +132,7 @@ DeviceSemiStep::DeviceSemiStep(const Model& model, const Vec3& gravity, double d
         throw_error("--device cuda: the body has no reduced basis");
     try {
         m_impl = std::make_unique<gpu::Engine>(
-            engine_model(model, gravity, damping, iterations, planes));
+            engine_model(model, gravity, damping, iterations, planes, exact_projections));
     } catch (const std::runtime_error& e) {
         throw_error("--device cuda: {}", e.what());
     }

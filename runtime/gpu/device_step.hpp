@@ -45,8 +45,9 @@ public:
     /// Uploads the model (tets, Dm^-1, volumes, masses, the basis in handle form, S^-1, A X,
     /// pins, `planes`). Throws mat::Error if CUDA is unavailable, the basis is not in handle
     /// form, or the GPU's memory does not suffice. `gravity` in m/s^2, `damping` as the solver's.
+    /// `exact_projections`: the decomposition of SolverOptions::exact_projections.
     DeviceSemiStep(const Model& model, const Vec3& gravity, double damping, int iterations,
-        const std::vector<PlaneCollider>& planes);
+        const std::vector<PlaneCollider>& planes, bool exact_projections = false);
     ~DeviceSemiStep();
     DeviceSemiStep(const DeviceSemiStep&) = delete;
     DeviceSemiStep& operator=(const DeviceSemiStep&) = delete;

@@ -190,8 +190,8 @@ PdSolver::PdSolver(const Model& model, const SolverOptions& options,
         if (options.acceleration != Acceleration::none)
             throw_error("--device cuda: solver.acceleration must be none (Anderson acceleration "
                         "runs on the CPU only)");
-        m_device = std::make_unique<DeviceSemiStep>(
-            model, options.gravity, options.damping, options.iterations, options.planes);
+        m_device = std::make_unique<DeviceSemiStep>(model, options.gravity, options.damping,
+            options.iterations, options.planes, options.exact_projections);
         m_device_margin = options.contact_margin * diagonal;
         m_device_q.resize(model.num_columns(), 3);
     }

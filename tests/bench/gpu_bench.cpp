@@ -8,6 +8,9 @@
 //              when collision detection (on the CPU) reads it;
 //   phases:    the gpu steps again with a CUDA event after each phase (slower in all; the split,
 //              and the local step's ns per tet per iteration, come from it).
+// The GPU runs once per variant of the local kernel's register cap (MAT_CUDA_LOCAL_BLOCKS 4, the
+// default, then 3 and 5); "vs cpu" is the max node distance to the CPU's after 3 steps over the
+// diagonal.
 // Each timing is the median of ROUNDS rounds of STEPS steps, after warm-up steps. The last
 // positions of the CPU and GPU runs of the same steps are compared (max node distance over the
 // bake's diagonal).
@@ -67,6 +70,44 @@ double run_steps(PdSolver& solver, State& state, int steps, bool sync = false)
     return 1e3 * timer.seconds() / steps;
 }
 
+/// One GPU variant (the local kernel's register cap, MAT_CUDA_LOCAL_BLOCKS) on `model`: its
+/// line of the table, and its profiled phases.
+void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after_3, double cpu_ms,
+    int steps, int rounds, const char* variant)
+{
+    setenv("MAT_CUDA_LOCAL_BLOCKS", variant, 1);
+    options.device = Device::cuda;
+    const std::unique_ptr<PdSolver> gpu = make_solver(SolverKind::semi_reduced, model, options);
+    DeviceSemiStep& device = *gpu->device();
+    const MatX3& rest = model.rest_positions();
+    const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+    // Warm-up, and the comparison: the same 3 steps as the CPU's.
+    State state = start_state(model);
+    run_steps(*gpu, state, 3);
+    const double distance
+        = (state.positions - cpu_after_3.positions).rowwise().norm().maxCoeff() / diagonal;
+    std::vector<double> gpu_ms, sync_ms;
+    for (int r = 0; r < rounds; ++r) {
+        gpu_ms.push_back(run_steps(*gpu, state, steps));
+        sync_ms.push_back(run_steps(*gpu, state, steps, true));
+    }
+    // The phases: a profiled run.
+    const DeviceTimings base = device.timings();
+    device.set_profiling(true);
+    run_steps(*gpu, state, steps);
+    device.set_profiling(false);
+    const DeviceTimings& t = device.timings();
+    const auto phase
+        = [&](double DeviceTimings::*field) { return 1e3 * (t.*field - base.*field) / steps; };
+    const double local = phase(&DeviceTimings::local);
+    std::printf("%-10s%10.3f%10.3f%10.3f%10.1f%12.4f%12.3g |%8.3f%8.3f%8.3f%8.3f%8.3f%8.3f\n",
+        variant, cpu_ms, median(gpu_ms), median(sync_ms), cpu_ms / median(gpu_ms),
+        1e6 * local / (static_cast<double>(model.num_tets()) * options.iterations), distance, local,
+        phase(&DeviceTimings::gather), phase(&DeviceTimings::rhs), phase(&DeviceTimings::solve),
+        phase(&DeviceTimings::reconstruct), phase(&DeviceTimings::begin_end));
+    std::fflush(stdout);
+}
+
 void bench(const std::string& path, int steps, int rounds)
 {
     const BakeData bake = read_bake(path);
@@ -78,58 +119,28 @@ void bench(const std::string& path, int steps, int rounds)
     const Model model(bake, material, model_options);
     SolverOptions options;
     options.iterations = 10;
-    const MatX3& rest = model.rest_positions();
-    const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     std::printf("== %s: %ld tets, %ld nodes, %ld handles, %ld columns\n", path.c_str(),
         static_cast<long>(model.num_tets()), static_cast<long>(model.num_nodes()),
         static_cast<long>(model.handle_centers().rows()), static_cast<long>(model.num_columns()));
-
     const std::unique_ptr<PdSolver> cpu = make_solver(SolverKind::semi_reduced, model, options);
-    options.device = Device::cuda;
-    const std::unique_ptr<PdSolver> gpu = make_solver(SolverKind::semi_reduced, model, options);
-    DeviceSemiStep& device = *gpu->device();
-    std::printf("device: %s\n", device.description().c_str());
-    // Warm-up (and the comparison: the same 3 steps both ways).
-    State cpu_state = start_state(model), gpu_state = start_state(model);
-    run_steps(*cpu, cpu_state, 3);
-    run_steps(*gpu, gpu_state, 3);
-    const double distance
-        = (gpu_state.positions - cpu_state.positions).rowwise().norm().maxCoeff() / diagonal;
-    std::vector<double> cpu_ms, gpu_ms, sync_ms;
+    State state = start_state(model);
+    run_steps(*cpu, state, 3);
+    const State after_3 = state;
+    std::vector<double> cpu_ms;
     const SolverTimings before = cpu->timings();
-    for (int r = 0; r < rounds; ++r) {
-        cpu_ms.push_back(run_steps(*cpu, cpu_state, steps));
-        gpu_ms.push_back(run_steps(*gpu, gpu_state, steps));
-        sync_ms.push_back(run_steps(*gpu, gpu_state, steps, true));
-    }
+    for (int r = 0; r < rounds; ++r)
+        cpu_ms.push_back(run_steps(*cpu, state, steps));
     const SolverTimings& after = cpu->timings();
     const double cpu_steps = static_cast<double>(after.steps - before.steps);
-    // The phases: a profiled run.
-    const DeviceTimings base = device.timings();
-    device.set_profiling(true);
-    run_steps(*gpu, gpu_state, steps);
-    device.set_profiling(false);
-    const DeviceTimings& t = device.timings();
-    const auto phase
-        = [&](double DeviceTimings::*field) { return 1e3 * (t.*field - base.*field) / steps; };
-    const double local = phase(&DeviceTimings::local);
-    std::printf("max node distance GPU - CPU after 3 steps: %.3g of the diagonal\n", distance);
-    std::printf(
-        "%-28s%10s%10s%10s%10s\n", "ms per step (median)", "cpu", "gpu", "gpu+sync", "cpu/gpu");
-    std::printf("%-28s%10.3f%10.3f%10.3f%10.1f\n", "", median(cpu_ms), median(gpu_ms),
-        median(sync_ms), median(cpu_ms) / median(gpu_ms));
     std::printf("cpu phases ms/step: local %.3f  rhs %.3f  solve %.3f  reconstruct %.3f\n",
         1e3 * (after.local - before.local) / cpu_steps, 1e3 * (after.rhs - before.rhs) / cpu_steps,
         1e3 * (after.solve - before.solve) / cpu_steps,
         1e3 * (after.reconstruct - before.reconstruct) / cpu_steps);
-    std::printf("gpu phases ms/step (profiled): local %.3f  gather %.3f  B^T y %.3f  solve %.3f  "
-                "reconstruct %.3f  begin/end %.3f\n",
-        local, phase(&DeviceTimings::gather), phase(&DeviceTimings::rhs),
-        phase(&DeviceTimings::solve), phase(&DeviceTimings::reconstruct),
-        phase(&DeviceTimings::begin_end));
-    std::printf("gpu local step: %.4f ns per tet per iteration\n",
-        1e6 * local / (static_cast<double>(model.num_tets()) * options.iterations));
-    std::fflush(stdout);
+    std::printf("%-10s%10s%10s%10s%10s%12s%12s | gpu phases ms/step, profiled: local, gather, "
+                "B^T y, solve, reconstruct, begin/end\n",
+        "variant", "cpu ms", "gpu ms", "gpu+sync", "cpu/gpu", "local ns", "vs cpu");
+    for (const char* variant : { "4", "3", "5" })
+        bench_gpu(model, options, after_3, median(cpu_ms), steps, rounds, variant);
 }
 
 } // namespace

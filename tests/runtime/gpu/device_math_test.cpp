@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 #include "runtime/gpu/device_math.hpp"
@@ -107,6 +108,7 @@ namespace {
         weights.limit = 20.0;
         weights.limit_min = 0.9;
         weights.limit_max = 1.1;
+        weights.exact = true;
         int compared = 0;
         for (const Mat3& f : gradients()) {
             if (std::abs(f.determinant()) < 1e-6)
@@ -126,6 +128,60 @@ namespace {
             ++compared;
         }
         EXPECT_GT(compared, 120);
+    }
+
+    TEST(DeviceMath, FastProjectionIsCloseToTheExactOne)
+    {
+        // The fast decomposition (float eigenvectors): about 1e-5 of the singular values'
+        // spread off the exact projection; flat and collapsed tets take the exact path.
+        gpu::ProjectionWeights weights;
+        weights.volume_tolerance = 0.01;
+        weights.rotation = 2.0;
+        weights.volume = 3.0;
+        weights.limit = 20.0;
+        weights.limit_min = 0.9;
+        weights.limit_max = 1.1;
+        int compared = 0;
+        for (const Mat3& f : gradients()) {
+            if (std::abs(f.determinant()) > 3.0)
+                continue; // see VolumeDiagonalMatchesTheReference
+            Mat33 fm, target;
+            from_eigen(f, fm);
+            float warm[4] = { 1.0f, 0.0f, 0.0f, 0.0f };
+            gpu::weighted_projection(fm, weights, warm, target);
+            const Eigen::JacobiSVD<Mat3> svd(f);
+            const double spread = svd.singularValues()(0) - svd.singularValues()(2);
+            const Mat3 expected = reference_target(f, weights);
+            EXPECT_LT((to_eigen(target) - expected).norm(), 1e-4 * (1.0 + spread) * 25.0) << f;
+            ++compared;
+        }
+        EXPECT_GT(compared, 150);
+    }
+
+    TEST(DeviceMath, FastProjectionIsExactUnderRigidMotionAndUniformScale)
+    {
+        gpu::ProjectionWeights weights;
+        weights.volume_tolerance = 0.01;
+        weights.rotation = 2.0;
+        weights.volume = 3.0;
+        std::mt19937 rng(11);
+        std::uniform_real_distribution<double> unit(-1.0, 1.0);
+        for (int k = 0; k < 50; ++k) {
+            const Mat3 r = Eigen::Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng))
+                               .normalized()
+                               .toRotationMatrix();
+            const double scale = 1.0 + 0.1 * unit(rng);
+            Mat33 fm, target;
+            from_eigen(Mat3(scale * r), fm);
+            float warm[4] = { 0.3f, 0.1f, -0.5f, 0.2f }; // any start
+            gpu::weighted_projection(fm, weights, warm, target);
+            weights.exact = true;
+            Mat33 exact;
+            float warm_exact[4] = { 1.0f, 0.0f, 0.0f, 0.0f };
+            gpu::weighted_projection(fm, weights, warm_exact, exact);
+            weights.exact = false;
+            EXPECT_LT((to_eigen(target) - to_eigen(exact)).norm(), 1e-12);
+        }
     }
 
     TEST(DeviceMath, RigidMotionIsItsOwnProjection)

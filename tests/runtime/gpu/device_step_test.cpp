@@ -133,6 +133,27 @@ namespace {
             distance / diag, e_cpu, e_gpu);
     }
 
+    TEST_F(DeviceStep, ExactProjectionsMatchTheCpuPath)
+    {
+        // solver.projections exact: double Jacobi and QR on both sides.
+        ModelOptions model_options;
+        model_options.time_step = 1.0 / 30.0;
+        Material material;
+        material.youngs_modulus = 5e4;
+        material.poisson_ratio = 0.4;
+        const Model model(creature(), material, model_options);
+        SolverOptions options;
+        options.iterations = 10;
+        options.exact_projections = true;
+        const RunResult cpu = simulate(model, options, Device::cpu, 50);
+        const RunResult gpu = simulate(model, options, Device::cuda, 50);
+        const double distance = max_distance(gpu.state, cpu.state);
+        EXPECT_LE(distance, 1e-4 * diagonal(model));
+        std::printf("exact projections, free spin, 50 steps: max node distance %.3g of the "
+                    "diagonal\n",
+            distance / diagonal(model));
+    }
+
     TEST_F(DeviceStep, PinsAndGroundMatchTheCpuPath)
     {
         // Hung by its highest nodes over a ground plane it sags onto.
