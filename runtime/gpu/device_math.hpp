@@ -1,21 +1,21 @@
 #pragma once
 // The arithmetic of the semi-reduced step on the GPU (docs/gpu.md), as functions that compile for
-// the host and for the device alike: the CUDA kernels (runtime/gpu/device_step.cu) call them one
-// tet or one node per thread, and the CPU tests (tests/runtime/test_device_math.cpp) check them
-// against the CPU path's reference projection (project_tet) on machines without a GPU.
+// the host and for the device alike: the CUDA kernels (runtime/gpu/device_engine.cu) call them one
+// tet per thread, and the CPU tests (tests/runtime/gpu/device_math_test.cpp) check them against
+// the CPU path's reference projection (project_tet) on machines without a GPU.
 //
-// One tet's projection, in double precision throughout (a GPU thread has no SIMD lanes to share
-// a decomposition with, and its double arithmetic is cheap next to its memory traffic):
-//   1. Jacobi eigen-decomposition of F^T F, started from the tet's last right singular vectors
-//      (a quaternion in float, as the CPU path keeps them): cyclic sweeps of exact Givens
-//      rotations until the off-diagonal is below 1e-14 of the trace (usually one sweep from the
-//      warm start), V accumulated as a matrix;
-//   2. V's columns sorted by decreasing |F v| (column swaps that keep det V = +1), then a Givens
-//      QR of F V = U R: U is a rotation and the signed singular values are R's diagonal (the last
-//      one negative for an inverted tet), as in McAdams et al. 2011;
-//   3. the projections of the CPU path (runtime/pd/elastic_term.hpp), combined the same way:
-//      target = (w_v + w_l) F + U diag(w_r + w_v (d - s) + w_l (c - s)) V^T, with d the volume
-//      projection's diagonal (Newton on its KKT conditions, as project_tet) and c = clamp(s).
+// One tet's projection follows the CPU path's two decompositions (runtime/pd/elastic_term.hpp):
+//   fast (the default): fast_signed_svd, float Jacobi sweeps from the warm start, V in double
+//     from its quaternion, U = F V S^-1; flat or collapsed tets and a U off orthogonal fall back
+//     to the exact one;
+//   exact: signed_svd, Jacobi sweeps in double until the off-diagonal is below 1e-14 of the
+//     trace, V's columns sorted (swaps that keep det V = +1), then a Givens QR of F V = U R:
+//     U is a rotation and the signed singular values are R's diagonal (the last one negative for
+//     an inverted tet), as in McAdams et al. 2011.
+// Then the CPU path's projections, combined the same way:
+//   target = (w_v + w_l) F + U diag(w_r + w_v (d - s) + w_l (c - s)) V^T,
+// with d the volume projection's diagonal (Newton on its KKT conditions, as project_tet) and
+// c = clamp(s).
 
 #include <cmath>
 
