@@ -7,7 +7,9 @@
 // (points in the file's order, each labelled with its value), decade ticks, a legend; errors more
 // than 4 decades below the largest are left off the chart (counted in a note). TABLE.md
 // gets a Markdown section per scene: the chart and a table of every point. Every file is written
-// atomically; a malformed line is an error naming the file and the line.
+// atomically; a malformed line is an error naming the file and the line. Each scene's section
+// opens with its time-to-accuracy table: for RMS targets 5%, 2%, 1% and 0.5%, the fastest point
+// of each method that reaches it (ms per step and setting), and the fastest method.
 
 #include <algorithm>
 #include <cmath>
@@ -316,6 +318,47 @@ namespace {
         return svg;
     }
 
+    /// RMS error targets of the time-to-accuracy table, % of the diagonal.
+    constexpr double accuracy_targets[] = { 5.0, 2.0, 1.0, 0.5 };
+
+    /// The time-to-accuracy table of a scene: per method (row) and RMS target (column), the
+    /// fastest of its points whose RMS error is at most the target, as "ms (setting)", "-" where
+    /// none reaches it; a last row names the fastest method per target.
+    std::string time_to_accuracy(const SceneResults& scene)
+    {
+        std::string md = "| method |";
+        std::string rule = "| --- |";
+        for (const double target : accuracy_targets) {
+            md += fmt::format(" RMS <= {:g}% |", target);
+            rule += " ---: |";
+        }
+        md += "\n" + rule + "\n";
+        std::vector<const Point*> best(std::size(accuracy_targets), nullptr);
+        std::vector<const Series*> best_series(std::size(accuracy_targets), nullptr);
+        for (const Series& series : scene.series) {
+            md += "| " + series.method + " |";
+            for (std::size_t t = 0; t < std::size(accuracy_targets); ++t) {
+                const Point* fastest = nullptr;
+                for (const Point& p : series.points)
+                    if (p.rms <= accuracy_targets[t] && (!fastest || p.ms < fastest->ms))
+                        fastest = &p;
+                md += fastest ? fmt::format(
+                          " {:.3g} ms ({} {}) |", fastest->ms, fastest->value, series.parameter)
+                              : std::string(" - |");
+                if (fastest && (!best[t] || fastest->ms < best[t]->ms)) {
+                    best[t] = fastest;
+                    best_series[t] = &series;
+                }
+            }
+            md += "\n";
+        }
+        md += "| **fastest** |";
+        for (std::size_t t = 0; t < std::size(accuracy_targets); ++t)
+            md += best[t] ? fmt::format(" **{}**, {:.3g} ms |", best_series[t]->method, best[t]->ms)
+                          : std::string(" - |");
+        return md + "\n";
+    }
+
     std::string markdown(const std::vector<SceneResults>& scenes, const std::string& chart_dir,
         const std::string& note)
     {
@@ -325,6 +368,9 @@ namespace {
         for (const SceneResults& scene : scenes) {
             md += fmt::format(
                 "\n#### {}\n\n![{}]({}/{}.svg)\n\n", scene.name, scene.name, chart_dir, scene.name);
+            md += "Time to accuracy: the fastest setting of each method whose RMS error is at most "
+                  "the target, ms per step (setting).\n\n"
+                + time_to_accuracy(scene) + "\nEvery point:\n\n";
             md += "| method | setting | ms/step | RMS % | max % |\n| --- | --- | ---: | ---: | "
                   "---: |\n";
             for (const Series& series : scene.series)
