@@ -13,6 +13,51 @@ namespace mat {
 
 namespace {
 
+    /// The basis in handle form (node by node, as the CPU's products read it, and handle by
+    /// handle) and S^-1 into `out`.
+    void add_reduced_basis(const Model& model, gpu::EngineModel& out)
+    {
+        const Index n = model.num_nodes(), k = model.num_columns();
+        const Index m = model.handle_centers().rows();
+        const BasisProducts products(model);
+        if (!products.factored())
+            throw_error("--device cuda: the bake's basis is not in handle form (w_ij times the "
+                        "monomials of each handle), which the GPU step needs");
+        const VecXi& offsets = model.handle_column_offsets();
+        for (Index j = 0; j < m; ++j) {
+            for (int c = 0; c < 3; ++c)
+                out.handle_centers.push_back(model.handle_centers()(j, c));
+            out.handle_inverse_scales.push_back(1.0 / model.handle_scales()(j));
+            out.handle_offsets.push_back(offsets(j));
+            out.handle_terms.push_back(offsets(j + 1) - offsets(j));
+        }
+        out.node_entry_offsets = products.node_offsets();
+        out.node_entry_handles = products.node_handles();
+        out.node_entry_weights = products.node_weights();
+        const std::size_t entries = out.node_entry_handles.size();
+        out.handle_entry_offsets.assign(static_cast<std::size_t>(m) + 1, 0);
+        for (const int j : out.node_entry_handles)
+            ++out.handle_entry_offsets[static_cast<std::size_t>(j) + 1];
+        for (Index j = 0; j < m; ++j)
+            out.handle_entry_offsets[j + 1] += out.handle_entry_offsets[j];
+        out.handle_entry_nodes.resize(entries);
+        out.handle_entry_weights.resize(entries);
+        std::vector<int> next(out.handle_entry_offsets.begin(), out.handle_entry_offsets.end() - 1);
+        for (Index i = 0; i < n; ++i) // nodes ascending: each handle's entries by node
+            for (int e = out.node_entry_offsets[i]; e < out.node_entry_offsets[i + 1]; ++e) {
+                const int slot = next[static_cast<std::size_t>(out.node_entry_handles[e])]++;
+                out.handle_entry_nodes[slot] = static_cast<int>(i);
+                out.handle_entry_weights[slot] = out.node_entry_weights[e];
+            }
+
+        // S^-1, as the CPU's reduced step keeps it up to dense_inverse_limit columns.
+        const MatX inverse = model.reduced_system().solve(MatX::Identity(k, k));
+        out.inverse.resize(static_cast<std::size_t>(k * k));
+        for (Index r = 0; r < k; ++r)
+            for (Index c = 0; c < k; ++c)
+                out.inverse[r * k + c] = inverse(r, c);
+    }
+
     /// The model in the engine's layout (runtime/gpu/device_engine.hpp).
     gpu::EngineModel engine_model(const Model& model, const Vec3& gravity, double damping,
         int iterations, const std::vector<PlaneCollider>& planes, bool exact)
@@ -73,45 +118,7 @@ namespace {
             out.planes.push_back(plane.normal.dot(plane.point));
         }
 
-        // The basis in handle form, node by node (as the CPU's products read it) and handle by
-        // handle.
-        const BasisProducts products(model);
-        if (!products.factored())
-            throw_error("--device cuda: the bake's basis is not in handle form (w_ij times the "
-                        "monomials of each handle), which the GPU step needs");
-        const VecXi& offsets = model.handle_column_offsets();
-        for (Index j = 0; j < m; ++j) {
-            for (int c = 0; c < 3; ++c)
-                out.handle_centers.push_back(model.handle_centers()(j, c));
-            out.handle_inverse_scales.push_back(1.0 / model.handle_scales()(j));
-            out.handle_offsets.push_back(offsets(j));
-            out.handle_terms.push_back(offsets(j + 1) - offsets(j));
-        }
-        out.node_entry_offsets = products.node_offsets();
-        out.node_entry_handles = products.node_handles();
-        out.node_entry_weights = products.node_weights();
-        const std::size_t entries = out.node_entry_handles.size();
-        out.handle_entry_offsets.assign(static_cast<std::size_t>(m) + 1, 0);
-        for (const int j : out.node_entry_handles)
-            ++out.handle_entry_offsets[static_cast<std::size_t>(j) + 1];
-        for (Index j = 0; j < m; ++j)
-            out.handle_entry_offsets[j + 1] += out.handle_entry_offsets[j];
-        out.handle_entry_nodes.resize(entries);
-        out.handle_entry_weights.resize(entries);
-        std::vector<int> next(out.handle_entry_offsets.begin(), out.handle_entry_offsets.end() - 1);
-        for (Index i = 0; i < n; ++i) // nodes ascending: each handle's entries by node
-            for (int e = out.node_entry_offsets[i]; e < out.node_entry_offsets[i + 1]; ++e) {
-                const int slot = next[static_cast<std::size_t>(out.node_entry_handles[e])]++;
-                out.handle_entry_nodes[slot] = static_cast<int>(i);
-                out.handle_entry_weights[slot] = out.node_entry_weights[e];
-            }
-
-        // S^-1, as the CPU's reduced step keeps it up to dense_inverse_limit columns.
-        const MatX inverse = model.reduced_system().solve(MatX::Identity(k, k));
-        out.inverse.resize(static_cast<std::size_t>(k * k));
-        for (Index r = 0; r < k; ++r)
-            for (Index c = 0; c < k; ++c)
-                out.inverse[r * k + c] = inverse(r, c);
+        add_reduced_basis(model, out);
         return out;
     }
 
