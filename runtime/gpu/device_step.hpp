@@ -5,8 +5,8 @@
 // (runtime/pd/solver.hpp) drives it for `--device cuda`; a step with contact candidates brings
 // q to the CPU's contact stage and back in every iteration (which parts run where: docs/gpu.md).
 //
-// This header has no CUDA types: without -DMAT_CUDA=ON the class is built from
-// device_step_none.cpp, whose constructor throws mat::Error saying so.
+// This header has no CUDA types. Without -DMAT_CUDA=ON the engine underneath is
+// device_engine_none.cpp's, and the constructor throws mat::Error saying so.
 
 #include <memory>
 #include <string>
@@ -23,11 +23,12 @@ namespace gpu {
 }
 
 /// Seconds per phase of the device step, measured with CUDA events when profiling is on (each
-/// phase then ends with an event; off, only `step` is measured, from the host).
+/// phase then ends with an event; off, the phases stay 0 and only the transfers are timed, from
+/// the host).
 struct DeviceTimings {
     double local = 0.0; ///< projections and their shares
     double gather = 0.0; ///< per node: base + its corners' shares
-    double rhs = 0.0; ///< B^T y (both passes)
+    double rhs = 0.0; ///< B^T y
     double solve = 0.0; ///< S^-1 times the three right-hand sides
     double reconstruct = 0.0; ///< x = X + B q
     double begin_end = 0.0; ///< inertia and base at the start, velocities at the end
