@@ -25,16 +25,23 @@
 #   docs/make_charts.sh build-release
 #   CHARTS_WORK=/tmp/charts docs/make_charts.sh   work directory (bakes, runs; default BUILD/charts)
 #   CHARTS_ONLY=1 docs/make_charts.sh        only redraw the charts and table from WORK/results.csv
+#   CHARTS_DIR=docs/charts_50k MARKER=charts_50k TET_SIZE=0.0173 HANDLES="25 50 100 200" \
+#       THREADS=2 docs/make_charts.sh        the same study on bodies of about 50k tets, into its
+#                                            own charts and its own section of benchmarks.md
+#                                            (between <!-- MARKER:begin --> and <!-- MARKER:end -->)
 # Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_ITERATIONS,
 # FULL_ITERATIONS, HANDLES, REDUCED_METHODS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES, THREADS
-# (default 1).
+# (default 1), TET_SIZE (0.04), CHARTS_DIR (docs/charts, relative to the repository), MARKER
+# (charts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "${1:-$root/build}" && pwd)"
 bake="${MAT_BAKE:-$build/preprocess/mat-bake}"
 run="${MAT_RUN:-$build/runtime/mat-run}"
 chart="${MAT_CHART:-$build/tests/bench/speed_accuracy_chart}"
-work="${CHARTS_WORK:-$build/charts}"
+charts_dir="${CHARTS_DIR:-docs/charts}"
+marker="${MARKER:-charts}"
+work="${CHARTS_WORK:-$build/$(basename "$charts_dir")}"
 threads="${THREADS:-1}"
 for tool in "$bake" "$run" "$chart"; do
     [ -x "$tool" ] || { echo "make_charts: no $tool (build it, or pass the build directory)" >&2; exit 1; }
@@ -173,15 +180,16 @@ mv "$csv.tmp" "$csv"
 fi
 
 # The charts and the table; the table replaces docs/benchmarks.md's between the markers.
-"$chart" "$csv" "$root/docs/charts" "$work/table.md" \
-    --note "reference: full-space PD at $REF_ITERATIONS iterations per step; ms per step with $threads thread(s)"
+mkdir -p "$root/$charts_dir"
+"$chart" "$csv" "$root/$charts_dir" "$work/table.md" --link-dir "${charts_dir#docs/}" \
+    --note "reference: full-space PD at $REF_ITERATIONS iterations per step; tet size $TET_SIZE of the diagonal; ms per step with $threads thread(s)"
 doc="$root/docs/benchmarks.md"
-grep -q '^<!-- charts:begin -->$' "$doc" && grep -q '^<!-- charts:end -->$' "$doc" \
-    || { echo "make_charts: $doc has no <!-- charts:begin --> / <!-- charts:end --> lines" >&2; exit 1; }
-awk -v table="$work/table.md" '
-    /^<!-- charts:begin -->$/ { print; while ((getline line < table) > 0) print line; skip = 1; next }
-    /^<!-- charts:end -->$/ { skip = 0 }
+grep -q "^<!-- $marker:begin -->\$" "$doc" && grep -q "^<!-- $marker:end -->\$" "$doc" \
+    || { echo "make_charts: $doc has no <!-- $marker:begin --> / <!-- $marker:end --> lines" >&2; exit 1; }
+awk -v table="$work/table.md" -v begin="<!-- $marker:begin -->" -v end="<!-- $marker:end -->" '
+    $0 == begin { print; while ((getline line < table) > 0) print line; skip = 1; next }
+    $0 == end { skip = 0 }
     !skip { print }
 ' "$doc" > "$doc.tmp"
 mv "$doc.tmp" "$doc"
-echo "make_charts: wrote docs/charts/*.svg, $csv and the table in docs/benchmarks.md in $(( $(date +%s) - start_all )) s"
+echo "make_charts: wrote $charts_dir/*.svg, $csv and the table in docs/benchmarks.md in $(( $(date +%s) - start_all )) s"

@@ -1,5 +1,5 @@
 // Speed against accuracy charts (docs/make_charts.sh):
-//   speed_accuracy_chart RESULTS.csv OUT_DIR TABLE.md [--note TEXT]
+//   speed_accuracy_chart RESULTS.csv OUT_DIR TABLE.md [--note TEXT] [--link-dir DIR]
 // RESULTS.csv has the header scene,method,parameter,value,ms_per_step,rms_percent,max_percent
 // (no quoted fields: labels hold no commas). For every scene, in the order of the file, writes
 // OUT_DIR/SCENE.svg: two log-log panels (RMS and max surface distance to the reference, % of the
@@ -385,15 +385,17 @@ namespace {
     {
         std::vector<std::string> args(argv + 1, argv + argc);
         std::string note;
-        for (std::size_t i = 0; i < args.size(); ++i)
-            if (args[i] == "--note" && i + 1 < args.size()) {
-                note = args[i + 1];
+        std::string link_dir = "charts"; // the charts' folder as TABLE.md's page links it
+        for (std::size_t i = 0; i + 1 < args.size();)
+            if (args[i] == "--note" || args[i] == "--link-dir") {
+                (args[i] == "--note" ? note : link_dir) = args[i + 1];
                 args.erase(args.begin() + long(i), args.begin() + long(i) + 2);
-                break;
-            }
+            } else
+                ++i;
         if (args.size() != 3) {
-            std::fputs(
-                "usage: speed_accuracy_chart RESULTS.csv OUT_DIR TABLE.md [--note TEXT]\n", stderr);
+            std::fputs("usage: speed_accuracy_chart RESULTS.csv OUT_DIR TABLE.md [--note TEXT] "
+                       "[--link-dir DIR]\n",
+                stderr);
             return 2;
         }
         const std::vector<SceneResults> scenes = read_results(args[0]);
@@ -406,7 +408,7 @@ namespace {
             std::printf("wrote %s/%s.svg\n", args[1].c_str(), scenes[i].name.c_str());
         }
         // The table goes into docs/benchmarks.md, which links the charts relative to itself.
-        text_io::write_file_atomically(args[2], markdown(scenes, "charts", note));
+        text_io::write_file_atomically(args[2], markdown(scenes, link_dir, note));
         std::printf("wrote %s\n", args[2].c_str());
         return 0;
     }
