@@ -361,6 +361,22 @@ namespace {
             x[3 * i + sub] = rest[3 * i + sub] + (sub == 0 ? x0 : sub == 1 ? x1 : x2);
     }
 
+    /// The smallest of the block's threads' `value`s, for every thread (`least`: block_size
+    /// doubles of shared memory, free again on return).
+    __device__ inline double block_min(double value, double* least)
+    {
+        least[threadIdx.x] = value;
+        __syncthreads();
+        for (int half = block_size / 2; half > 0; half >>= 1) {
+            if (threadIdx.x < half)
+                least[threadIdx.x] = fmin(least[threadIdx.x], least[threadIdx.x + half]);
+            __syncthreads();
+        }
+        const double smallest = least[0];
+        __syncthreads();
+        return smallest;
+    }
+
     /// Per block and plane, the smallest n . x - n . p over its nodes at x_n and at s (planes: 4
     /// doubles each, the unit normal and n . p). The minimum does not depend on the order.
     __global__ void plane_kernel(int n, int num_planes, const double* __restrict__ planes,
@@ -379,16 +395,9 @@ namespace {
                     + plane[2] * s[3 * i + 2] - plane[3];
                 m = fmin(m, fmin(a, b));
             }
-            least[threadIdx.x] = m;
-            __syncthreads();
-            for (int half = block_size / 2; half > 0; half >>= 1) {
-                if (threadIdx.x < half)
-                    least[threadIdx.x] = fmin(least[threadIdx.x], least[threadIdx.x + half]);
-                __syncthreads();
-            }
+            m = block_min(m, least);
             if (threadIdx.x == 0)
-                block_minima[static_cast<long long>(p) * gridDim.x + blockIdx.x] = least[0];
-            __syncthreads();
+                block_minima[static_cast<long long>(p) * gridDim.x + blockIdx.x] = m;
         }
     }
 
@@ -401,16 +410,9 @@ namespace {
             double m = 1e300;
             for (int b = threadIdx.x; b < blocks; b += blockDim.x)
                 m = fmin(m, block_minima[static_cast<long long>(p) * blocks + b]);
-            least[threadIdx.x] = m;
-            __syncthreads();
-            for (int half = block_size / 2; half > 0; half >>= 1) {
-                if (threadIdx.x < half)
-                    least[threadIdx.x] = fmin(least[threadIdx.x], least[threadIdx.x + half]);
-                __syncthreads();
-            }
+            m = block_min(m, least);
             if (threadIdx.x == 0)
-                minima[p] = least[0];
-            __syncthreads();
+                minima[p] = m;
         }
     }
 

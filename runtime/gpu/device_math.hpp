@@ -60,13 +60,30 @@ MAT_HD double inverse_sqrt(double a)
 #endif
 }
 /// 1 / sqrt(a) in float (the GPU's approximate reciprocal square root instruction).
-MAT_HD float inverse_sqrtf(float a)
+MAT_HD float inverse_sqrt(float a)
 {
 #if defined(__CUDA_ARCH__)
     return ::rsqrtf(a);
 #else
     return 1.0f / std::sqrt(a);
 #endif
+}
+/// |a| and sqrt(a) in the precision of a (the Jacobi stage runs in float and in double).
+MAT_HD double magnitude(double a)
+{
+    return dabs(a);
+}
+MAT_HD float magnitude(float a)
+{
+    return ::fabsf(a);
+}
+MAT_HD double root(double a)
+{
+    return ::sqrt(a);
+}
+MAT_HD float root(float a)
+{
+    return ::sqrtf(a);
 }
 /// False for infinities and NaN (x - x is NaN for them).
 MAT_HD bool finite(double a)
@@ -138,31 +155,54 @@ MAT_HD void matrix_to_quaternion(const double (&v)[3][3], float (&quat)[4])
     quat[3] = static_cast<float>(z);
 }
 
-/// One Jacobi rotation on the symmetric a (only its upper triangle is kept current) zeroing
-/// a[p][q], accumulated into v's columns p and q.
-MAT_HD void jacobi_rotation(double (&a)[3][3], double (&v)[3][3], int p, int q)
+/// One Jacobi rotation on the symmetric a (both triangles kept current) zeroing a[p][q],
+/// accumulated into v's columns p and q, in float or double.
+template <typename T> MAT_HD void jacobi_rotation(T (&a)[3][3], T (&v)[3][3], int p, int q)
 {
-    const double apq = a[p][q];
-    if (apq == 0.0)
+    const T apq = a[p][q];
+    if (apq == T(0))
         return;
-    const double tau = (a[q][q] - a[p][p]) / (2.0 * apq);
-    const double t = (tau >= 0.0 ? 1.0 : -1.0) / (dabs(tau) + ::sqrt(1.0 + tau * tau));
-    const double c = inverse_sqrt(1.0 + t * t);
-    const double s = t * c;
+    const T tau = (a[q][q] - a[p][p]) / (T(2) * apq);
+    const T t = (tau >= T(0) ? T(1) : T(-1)) / (magnitude(tau) + root(T(1) + tau * tau));
+    const T c = inverse_sqrt(T(1) + t * t);
+    const T s = t * c;
     // a' = G^T a G with G = I except G_pp = G_qq = c, G_pq = s, G_qp = -s.
     const int r = 3 - p - q; // the third index
-    const double app = a[p][p], aqq = a[q][q];
+    const T app = a[p][p], aqq = a[q][q];
     a[p][p] = app - t * apq;
     a[q][q] = aqq + t * apq;
-    a[p][q] = a[q][p] = 0.0;
-    const double arp = a[r][p], arq = a[r][q];
+    a[p][q] = a[q][p] = T(0);
+    const T arp = a[r][p], arq = a[r][q];
     a[r][p] = a[p][r] = c * arp - s * arq;
     a[r][q] = a[q][r] = s * arp + c * arq;
     for (int i = 0; i < 3; ++i) {
-        const double vip = v[i][p], viq = v[i][q];
+        const T vip = v[i][p], viq = v[i][q];
         v[i][p] = c * vip - s * viq;
         v[i][q] = s * vip + c * viq;
     }
+}
+
+/// Sorts v's columns by decreasing eigenvalue, a's diagonal; each swap negates one column, so
+/// det v stays +1.
+template <typename T> MAT_HD void sort_columns(const T (&a)[3][3], T (&v)[3][3])
+{
+    T e[3] = { a[0][0], a[1][1], a[2][2] };
+    const auto swap_columns = [&](int p, int q) {
+        const T t = e[p];
+        e[p] = e[q];
+        e[q] = t;
+        for (int i = 0; i < 3; ++i) {
+            const T vp = v[i][p];
+            v[i][p] = -v[i][q];
+            v[i][q] = vp;
+        }
+    };
+    if (e[0] < e[1])
+        swap_columns(0, 1);
+    if (e[0] < e[2])
+        swap_columns(0, 2);
+    if (e[1] < e[2])
+        swap_columns(1, 2);
 }
 
 /// Sweeps of the eigen-decomposition of a = F^T F in place from the warm start v (a is then
@@ -201,24 +241,7 @@ MAT_HD void signed_svd(
         for (int j = i; j < 3; ++j)
             a[i][j] = a[j][i] = b[0][i] * b[0][j] + b[1][i] * b[1][j] + b[2][i] * b[2][j];
     jacobi_sweeps(a, v);
-    // V's columns by decreasing eigenvalue; a swap negates one column to keep det V = +1.
-    double e[3] = { a[0][0], a[1][1], a[2][2] };
-    const auto swap_columns = [&](int p, int q) {
-        const double t = e[p];
-        e[p] = e[q];
-        e[q] = t;
-        for (int i = 0; i < 3; ++i) {
-            const double vp = v[i][p];
-            v[i][p] = -v[i][q];
-            v[i][q] = vp;
-        }
-    };
-    if (e[0] < e[1])
-        swap_columns(0, 1);
-    if (e[0] < e[2])
-        swap_columns(0, 2);
-    if (e[1] < e[2])
-        swap_columns(1, 2);
+    sort_columns(a, v);
     matrix_to_quaternion(v, warm);
     // R = F V, then Givens QR: U^T R upper triangular, U a product of rotations.
     double r[3][3];
@@ -254,33 +277,9 @@ MAT_HD void signed_svd(
     s[2] = r[2][2];
 }
 
-/// One float Jacobi rotation zeroing a[p][q] (as jacobi_rotation), accumulated into v.
-MAT_HD void jacobi_rotation_float(float (&a)[3][3], float (&v)[3][3], int p, int q)
-{
-    const float apq = a[p][q];
-    if (apq == 0.0f)
-        return;
-    const float tau = (a[q][q] - a[p][p]) / (2.0f * apq);
-    const float t = (tau >= 0.0f ? 1.0f : -1.0f) / (::fabsf(tau) + ::sqrtf(1.0f + tau * tau));
-    const float c = inverse_sqrtf(1.0f + t * t);
-    const float s = t * c;
-    const int r = 3 - p - q;
-    a[p][p] -= t * apq;
-    a[q][q] += t * apq;
-    a[p][q] = a[q][p] = 0.0f;
-    const float arp = a[r][p], arq = a[r][q];
-    a[r][p] = a[p][r] = c * arp - s * arq;
-    a[r][q] = a[q][r] = s * arp + c * arq;
-    for (int i = 0; i < 3; ++i) {
-        const float vip = v[i][p], viq = v[i][q];
-        v[i][p] = c * vip - s * viq;
-        v[i][q] = s * vip + c * viq;
-    }
-}
-
 /// The fast signed SVD, the CPU path's default decomposition (runtime/pd/elastic_term.hpp): the
 /// eigenvectors of F^T F by float Jacobi sweeps from the warm start (until the off-diagonal is
-/// below 1e-5 of the trace, at most 4 sweeps), sorted, kept as the quaternion `warm`; V from it
+/// below 3e-7 of the trace, at most 4 sweeps), sorted, kept as the quaternion `warm`; V from it
 /// in double (orthogonal to double precision), B = F V, s_i = |b_i|, U = B S^-1, the last
 /// column and singular value negated for an inverted F. Exact at rest and under rigid motion
 /// whatever V's error (F = B V^T exactly), otherwise off by about 1e-5 of the singular values'
@@ -306,28 +305,11 @@ MAT_HD bool fast_signed_svd(
     for (int sweep = 0; sweep < 4; ++sweep) {
         if (!(::fmaxf(::fmaxf(::fabsf(a[0][1]), ::fabsf(a[0][2])), ::fabsf(a[1][2])) > tolerance))
             break;
-        jacobi_rotation_float(a, vf, 0, 1);
-        jacobi_rotation_float(a, vf, 0, 2);
-        jacobi_rotation_float(a, vf, 1, 2);
+        jacobi_rotation(a, vf, 0, 1);
+        jacobi_rotation(a, vf, 0, 2);
+        jacobi_rotation(a, vf, 1, 2);
     }
-    // Columns by decreasing eigenvalue, det V = +1 kept (a swap negates one column).
-    float e[3] = { a[0][0], a[1][1], a[2][2] };
-    const auto swap_columns = [&](int p, int q) {
-        const float t = e[p];
-        e[p] = e[q];
-        e[q] = t;
-        for (int i = 0; i < 3; ++i) {
-            const float vp = vf[i][p];
-            vf[i][p] = -vf[i][q];
-            vf[i][q] = vp;
-        }
-    };
-    if (e[0] < e[1])
-        swap_columns(0, 1);
-    if (e[0] < e[2])
-        swap_columns(0, 2);
-    if (e[1] < e[2])
-        swap_columns(1, 2);
+    sort_columns(a, vf);
     double vd[3][3];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)

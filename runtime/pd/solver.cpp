@@ -67,6 +67,16 @@ namespace {
         return weights / weights.mean();
     }
 
+    /// A step's states: `in` of n nodes, `out` another object.
+    void check_step_states(const State& in, const State& out, Index n)
+    {
+        if (in.positions.rows() != n || in.velocities.rows() != n)
+            throw_error("solver: state has {} positions and {} velocities, the model has {} nodes",
+                in.positions.rows(), in.velocities.rows(), n);
+        if (&in == &out)
+            throw_error("solver: the input and output states must be different objects");
+    }
+
     /// s = x_n + h v_n + h^2 g.
     void inertia_positions(const State& in, double h, const Vec3& gravity, MatX3& s)
     {
@@ -237,11 +247,7 @@ void PdSolver::begin_step(const State& in, State& out)
     }
     const Model& model = *m_model;
     const Index n = model.num_nodes();
-    if (in.positions.rows() != n || in.velocities.rows() != n)
-        throw_error("solver: state has {} positions and {} velocities, the model has {} nodes",
-            in.positions.rows(), in.velocities.rows(), n);
-    if (&in == &out)
-        throw_error("solver: the input and output states must be different objects");
+    check_step_states(in, out, n);
     m_in = &in;
     m_out = &out;
     const double h = model.time_step();
@@ -387,11 +393,7 @@ void PdSolver::device_begin_step(const State& in, State& out)
 {
     const Model& model = *m_model;
     const Index n = model.num_nodes();
-    if (in.positions.rows() != n || in.velocities.rows() != n)
-        throw_error("solver: state has {} positions and {} velocities, the model has {} nodes",
-            in.positions.rows(), in.velocities.rows(), n);
-    if (&in == &out)
-        throw_error("solver: the input and output states must be different objects");
+    check_step_states(in, out, n);
     m_in = &in;
     m_out = &out;
     m_report = StepReport {};

@@ -79,6 +79,8 @@ void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after
     options.device = Device::cuda;
     const std::unique_ptr<PdSolver> gpu = make_solver(SolverKind::semi_reduced, model, options);
     DeviceSemiStep& device = *gpu->device();
+    if (std::string(variant) == "4")
+        std::printf("device: %s\n", device.description().c_str());
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     // Warm-up, and the comparison: the same 3 steps as the CPU's.

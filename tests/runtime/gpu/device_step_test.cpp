@@ -92,6 +92,17 @@ namespace {
         return out;
     }
 
+    /// The creature of the free-spin tests: soft (E 5e4 Pa, nu 0.4), dt 1/30 s.
+    Model spinning_creature()
+    {
+        ModelOptions model_options;
+        model_options.time_step = 1.0 / 30.0;
+        Material material;
+        material.youngs_modulus = 5e4;
+        material.poisson_ratio = 0.4;
+        return Model(creature(), material, model_options);
+    }
+
     class DeviceStep : public ::testing::Test {
     protected:
         void SetUp() override
@@ -104,12 +115,7 @@ namespace {
 
     TEST_F(DeviceStep, FreeSpinMatchesTheCpuPath)
     {
-        ModelOptions model_options;
-        model_options.time_step = 1.0 / 30.0;
-        Material material;
-        material.youngs_modulus = 5e4;
-        material.poisson_ratio = 0.4;
-        const Model model(creature(), material, model_options);
+        const Model model = spinning_creature();
         SolverOptions options;
         options.iterations = 10;
         const RunResult cpu = simulate(model, options, Device::cpu, 100);
@@ -136,12 +142,7 @@ namespace {
     TEST_F(DeviceStep, ExactProjectionsMatchTheCpuPath)
     {
         // solver.projections exact: double Jacobi and QR on both sides.
-        ModelOptions model_options;
-        model_options.time_step = 1.0 / 30.0;
-        Material material;
-        material.youngs_modulus = 5e4;
-        material.poisson_ratio = 0.4;
-        const Model model(creature(), material, model_options);
+        const Model model = spinning_creature();
         SolverOptions options;
         options.iterations = 10;
         options.exact_projections = true;
