@@ -64,7 +64,7 @@ struct BakeData {
     SurfaceMesh surface; ///< the input surface (welded)
     VecXi surface_tet; ///< #Vs containing (or nearest) tet
     MatX surface_barycentric; ///< #Vs x 4
-    Index surface_outside_count = 0; ///< vertices that used the nearest tet
+    Index surface_outside_count = 0; ///< vertices outside the tet mesh (extrapolated weights)
 
     // ---- medial mesh ----
     MedialMesh medial; ///< radii already inflated to enclose every surface vertex

@@ -250,6 +250,7 @@ namespace {
             TetrahedralizeOptions tet_options
                 = tetrahedralize_options_for(report.bbox_diagonal, options.tet_size);
             tet_options.max_vertices = options.max_tet_vertices;
+            tet_options.perturb = options.perturb_slivers;
             bake.tet_mesh = tetrahedralize(bake.surface, tet_options);
             const TetQuality quality = tet_quality(bake.tet_mesh);
             report.tets = quality.num_tets;
@@ -404,6 +405,8 @@ namespace {
     {
         nlohmann::json json;
         json["tet_size"] = options.tet_size;
+        if (!options.perturb_slivers)
+            json["sliver_perturbation"] = "off";
         json["quadratic"] = options.quadratic;
         json["weights_per_node"] = options.weights_per_node;
         json["region_alpha"] = options.region_alpha;
@@ -491,7 +494,7 @@ std::string BakeReport::summary() const
     out += fmt::format("tets: {} tets, {} nodes, min dihedral angle {:.2f} deg\n", tets, nodes,
         min_dihedral_degrees);
     out += fmt::format("embedding: {} surface vertices and {} sphere centers outside every tet "
-                       "(nearest tet used; farthest center {:.3g} away)\n",
+                       "(the least extrapolated tet near each; farthest center {:.3g} away)\n",
         surface_outside_tets, medial_outside_tets, medial_max_outside_distance);
     out += fmt::format("handles: {} ({} quadratic), {} basis columns, {} reduced DOF; {} regions "
                        "widened to a tet\n",

@@ -26,6 +26,9 @@ struct BakeOptions {
     double tet_size = k_default_tet_size; ///< tet size as a fraction of the bbox diagonal
     /// Bound on the vertices of the tet mesher's triangulation (docs/mat-bake.md, "Bounds").
     Index max_tet_vertices = 2000000;
+    /// Perturb slivers after the refinement (--sliver-perturbation; docs/method.md, section 2,
+    /// step 1): rounder tets for a longer meshing.
+    bool perturb_slivers = true;
     std::string quadratic = "none"; ///< "all", "none" or a comma-separated list of handles
     int weights_per_node = 8; ///< K: largest weights kept per node
     double region_alpha = 0.5; ///< handle region: nodes within alpha * radius of the center
@@ -57,8 +60,8 @@ struct BakeReport {
     double bbox_diagonal = 0.0;
     Index tets = 0, nodes = 0;
     double min_dihedral_degrees = 0.0;
-    Index surface_outside_tets = 0; ///< surface vertices embedded in their nearest tet
-    Index medial_outside_tets = 0; ///< sphere centers embedded in their nearest tet
+    Index surface_outside_tets = 0; ///< surface vertices outside the tet mesh
+    Index medial_outside_tets = 0; ///< sphere centers outside the tet mesh
     double medial_max_outside_distance = 0.0;
     Index handles = 0, quadratic_handles = 0, columns = 0;
     /// Handles whose region was widened to a tet (handle_regions.hpp step 4, run only when the

@@ -1,6 +1,8 @@
 #include "preprocess/cli/bake_command.hpp"
 
 #include <cstdio>
+#include <map>
+#include <string>
 
 #include "common/cli.hpp"
 #include "common/log.hpp"
@@ -39,6 +41,12 @@ void add_bake_options(CLI::App& app, BakeOptions& options)
            "Bound on the tet mesher's vertices; past it the bake stops with an error")
         ->check(whole_number_at_least(1))
         ->capture_default_str();
+    app.add_option("--sliver-perturbation", options.perturb_slivers,
+           "Perturb the tet mesh's slivers (on: rounder tets near the surface, for several "
+           "times the meshing time; docs/method.md, section 2)")
+        ->transform(
+            CLI::Transformer(std::map<std::string, bool> { { "on", true }, { "off", false } }))
+        ->default_str("on");
     app.add_option("--quadratic", options.quadratic,
            "Quadratic (30 DOF) handles: all, none, or a list of sphere indices 0,4,7")
         ->capture_default_str();
@@ -117,7 +125,7 @@ void run_inspect(const std::string& path)
     std::printf("  tet mesh: %lld nodes, %lld tets, volume %.6g\n",
         static_cast<long long>(b.tet_mesh.num_vertices()),
         static_cast<long long>(b.tet_mesh.num_tets()), b.rest_volumes.sum());
-    std::printf("  surface: %lld vertices, %lld faces (%lld embedded in their nearest tet)\n",
+    std::printf("  surface: %lld vertices, %lld faces (%lld outside the tet mesh, extrapolated)\n",
         static_cast<long long>(b.surface.num_vertices()),
         static_cast<long long>(b.surface.num_faces()),
         static_cast<long long>(b.surface_outside_count));

@@ -196,6 +196,51 @@ namespace {
         return best_face;
     }
 
+    /// The tets around each node (CSR over the node indices, tets increasing).
+    struct NodeTets {
+        std::vector<int> indptr;
+        std::vector<int> tets;
+    };
+
+    NodeTets node_tets(const TetMesh& mesh)
+    {
+        NodeTets result;
+        result.indptr.assign(static_cast<size_t>(mesh.num_vertices()) + 1, 0);
+        for (Index t = 0; t < mesh.num_tets(); ++t)
+            for (int k = 0; k < 4; ++k)
+                ++result.indptr[static_cast<size_t>(mesh.tets(t, k)) + 1];
+        for (size_t i = 1; i < result.indptr.size(); ++i)
+            result.indptr[i] += result.indptr[i - 1];
+        result.tets.resize(static_cast<size_t>(result.indptr.back()));
+        std::vector<int> fill(result.indptr.begin(), result.indptr.end() - 1);
+        for (Index t = 0; t < mesh.num_tets(); ++t)
+            for (int k = 0; k < 4; ++k)
+                result.tets[static_cast<size_t>(fill[static_cast<size_t>(mesh.tets(t, k))]++)]
+                    = static_cast<int>(t);
+        return result;
+    }
+
+    /// Outside: among the tets around the corners of the nearest boundary face, the one whose
+    /// smallest barycentric coordinate of x is largest (ties: the lower tet), the least
+    /// extrapolated (docs/method.md, section 2, step 2).
+    int least_extrapolated_tet(
+        const TetMesh& mesh, const NodeTets& around, const BoundaryFace& face, const Vec3& x)
+    {
+        int best = face.tet;
+        double best_min = barycentric_in(mesh, face.tet, x).minCoeff();
+        for (const int node : face.key)
+            for (int i = around.indptr[static_cast<size_t>(node)];
+                 i < around.indptr[static_cast<size_t>(node) + 1]; ++i) {
+                const int t = around.tets[static_cast<size_t>(i)];
+                const double m = barycentric_in(mesh, t, x).minCoeff();
+                if (m > best_min || (m == best_min && t < best)) {
+                    best_min = m;
+                    best = t;
+                }
+            }
+        return best;
+    }
+
 } // namespace
 
 TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& points)
@@ -208,6 +253,7 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
     const BoxGrid tet_grid = tet_box_grid(mesh);
     const std::vector<BoundaryFace> boundary = boundary_faces(mesh);
     const BoxGrid face_grid = face_box_grid(mesh, boundary);
+    const NodeTets around = node_tets(mesh);
 
     const Index num_points = points.rows();
     TetEmbedding result;
@@ -226,7 +272,8 @@ TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& po
         }
         double distance = 0.0;
         const int face = nearest_boundary_face(mesh, boundary, face_grid, x, distance);
-        const int best = boundary[static_cast<size_t>(face)].tet;
+        const int best
+            = least_extrapolated_tet(mesh, around, boundary[static_cast<size_t>(face)], x);
         result.tet(p) = best;
         result.barycentric.row(p) = barycentric_in(mesh, best, x).transpose();
         outside_distance[static_cast<size_t>(p)] = std::max(distance, 1e-300);

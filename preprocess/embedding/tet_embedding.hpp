@@ -10,14 +10,16 @@ namespace mat {
 struct TetEmbedding {
     VecXi tet; ///< #P tet index per point
     MatX barycentric; ///< #P x 4, sums to 1; all >= 0 (up to rounding) for an inside point
-    Index outside_count = 0; ///< points inside no tet: they use the nearest tet
-    double max_outside_distance = 0.0; ///< largest distance of such a point to its tet
+    Index outside_count = 0; ///< points inside no tet (extrapolated coordinates)
+    double max_outside_distance = 0.0; ///< largest distance of such a point to the mesh
 };
 
 /// Embeds `points  #P x 3` in `mesh`. A point inside several tets (on shared faces) takes the
-/// one where it is deepest. A point inside none takes the nearest tet, with barycentric
-/// coordinates extrapolated (some negative) so that affine fields are still reproduced exactly.
-/// Deterministic and parallel.
+/// one where it is deepest. A point inside none takes, among the tets around the corners of the
+/// mesh's nearest boundary face, the one whose smallest barycentric coordinate is largest (the
+/// least extrapolated: the nearest tet is often a flat one at the boundary, whose coordinates
+/// reach far below 0), with its coordinates extrapolated (some negative) so that affine fields
+/// are still reproduced exactly. Deterministic and parallel.
 TetEmbedding embed_points(const TetMesh& mesh, const Eigen::Ref<const MatX3>& points);
 
 /// Barycentric coordinates of p in tet (a, b, c, d) (may be negative outside).

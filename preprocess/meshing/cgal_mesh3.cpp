@@ -294,6 +294,13 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
     const auto exude = options.exude
         ? params::exude(params::time_limit = 0.0, params::sliver_bound = options.exude_sliver_bound)
         : params::no_exude();
+    // Sliver perturbation (the perturber moves the vertices of tets whose smallest dihedral
+    // angle is below the bound), also without a time limit: without it the coarse sample
+    // creature keeps tets 20 times flatter than a regular one at the surface, and a contact
+    // that presses such a tet inverts it (docs/method.md, section 2, step 1).
+    const auto perturb = options.perturb ? params::perturb(params::time_limit = 0.0,
+                             params::sliver_bound = options.perturb_sliver_bound)
+                                         : params::no_perturb();
     const auto features
         = options.detect_features ? params::features(domain) : params::no_features();
     // The vertex bound stops the refinement where it stands (Mesh_3's forced stop); a mesh that
@@ -303,8 +310,8 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
         = static_cast<std::size_t>(std::max<Index>(0, options.max_vertices));
     CGAL::Mesh_error_code error = CGAL::CGAL_MESH_3_NO_ERROR;
     bound.pointer_to_error_code = &error;
-    const PolyhedralC3t3 c3t3 = CGAL::make_mesh_3<PolyhedralC3t3>(
-        domain, criteria, features, params::no_perturb(), exude, bound);
+    const PolyhedralC3t3 c3t3
+        = CGAL::make_mesh_3<PolyhedralC3t3>(domain, criteria, features, perturb, exude, bound);
     logger().debug("tetrahedralize: Mesh_3 triangulation of {} vertices ({:.2f} s)",
         c3t3.triangulation().number_of_vertices(), timer.seconds());
     if (error == CGAL::CGAL_MESH_3_MAXIMAL_NUMBER_OF_VERTICES_REACHED)

@@ -28,6 +28,12 @@ struct TetrahedralizeOptions {
     /// degrees for ~15% more time; a bound of 0 gives the same minimum in 5x the time.
     bool exude = true;
     double exude_sliver_bound = 15.0;
+    /// Sliver perturbation without a time limit (deterministic), before exudation, aiming at a
+    /// smallest dihedral angle of perturb_sliver_bound degrees. The creature at the default
+    /// size: minimum dihedral angle 4.7 -> 8.8 degrees, meshing 0.2 -> 4.7 s; the armadillo
+    /// (35k tets): 4.2 -> 8.7 degrees, 0.7 -> 3.3 s.
+    bool perturb = true;
+    double perturb_sliver_bound = 15.0;
     bool detect_features = false; ///< protect sharp edges (dihedral angle below feature_angle)
     double feature_angle = 60.0; ///< degrees; used only with detect_features
     /// Bound on the vertices of Mesh_3's triangulation (docs/mat-bake.md, "Bounds"): past it
