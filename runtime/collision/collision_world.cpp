@@ -432,7 +432,7 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
         plane.point = Vec3::Zero();
         plane.normal = hit.normal;
         plane.friction = m_settings.friction;
-        m_contacts.close(plane, hit.node);
+        m_contacts.close(plane, hit.node, hit.body == hit.other_body);
         m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
         ++m_report.contacts;
     }

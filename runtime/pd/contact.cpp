@@ -82,7 +82,7 @@ namespace {
         double gap_of(Index c) const
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
-            const double eps = plane.compliance * diagonal(c);
+            const double eps = std::max(plane.compliance * diagonal(c), plane.compliance_floor);
             return plane.normal.dot(
                 positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
         }
@@ -105,7 +105,7 @@ namespace {
                 return 0.0; // a node the global step cannot move (cannot happen for SPD)
             // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
             // unit force.
-            const double eps = plane.compliance * coupling_cc;
+            const double eps = std::max(plane.compliance * coupling_cc, plane.compliance_floor);
             const double w = coupling_cc + eps;
             const Vec3 n = plane.normal;
             const Index kk = static_cast<Index>(k);

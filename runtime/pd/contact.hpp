@@ -43,6 +43,10 @@ struct PlaneCollider {
     /// of freedom (a reduced body against another body), at the price of a penetration of
     /// compliance D_cc |f_c|.
     double compliance = 0.0;
+    /// A lower bound on that compliance, absolute (the solve's units, like D_cc; 0: none): the
+    /// conditions hold at x + max(compliance D_cc, compliance_floor) f. The contact stage sets
+    /// it for self contacts of reduced bodies (docs/method.md, "Self contacts of reduced bodies").
+    double compliance_floor = 0.0;
 };
 
 /// One candidate contact: a node against a plane.

@@ -30,7 +30,29 @@ void ContactStage::init_body(int b, PdSolver& solver)
     data.previous_pair = MatX3::Zero(model.num_nodes(), 3);
     if (num_planes > 0)
         data.boundary = boundary_nodes(model.tets(), model.num_nodes());
+    if (solver.reduced_coordinates() != nullptr) {
+        const Eigen::SparseMatrix<double>& system = model.full_system();
+        data.local_compliance.resize(model.num_nodes());
+        for (Index i = 0; i < model.num_nodes(); ++i)
+            data.local_compliance(i) = 1.0 / system.coeff(i, i);
+    }
     data.initialized = true;
+}
+
+double ContactStage::self_compliance_floor(const Record& record) const
+{
+    double floor = 0.0;
+    for (int s = 0; s < record.num_sides; ++s) {
+        const Side& side = record.sides[static_cast<std::size_t>(s)];
+        const VecX& local = m_data[static_cast<std::size_t>(side.body)].local_compliance;
+        if (local.size() == 0)
+            continue;
+        for (int t = side.first; t < side.first + side.count; ++t) {
+            const double w = m_term_weight[static_cast<std::size_t>(t)];
+            floor += w * w * local(m_term_node[static_cast<std::size_t>(t)]);
+        }
+    }
+    return floor;
 }
 
 void ContactStage::add_side(Record& record, int body, int first, int count)
@@ -126,6 +148,9 @@ void ContactStage::add_body_contacts(
         }
         if (record.num_sides == 0)
             continue; // between constant bodies
+        if (static_cast<std::size_t>(c) < contacts.self.size()
+            && contacts.self[static_cast<std::size_t>(c)])
+            plane.compliance_floor = self_compliance_floor(record);
         const ContactTerm& first = contacts.terms[static_cast<std::size_t>(begin)];
         if (bodies[static_cast<std::size_t>(first.body)].solver != nullptr) {
             const int key = contacts.keys[static_cast<std::size_t>(c)];

@@ -55,6 +55,8 @@ struct BodyContacts {
     /// same body, by which the next step's constraint is warm started with this one's force (a
     /// surface vertex); -1: the first term's node.
     std::vector<int> keys;
+    /// Per constraint, whether it is a self contact (two parts of one body).
+    std::vector<char> self;
 
     void clear()
     {
@@ -62,6 +64,7 @@ struct BodyContacts {
         offsets.assign(1, 0);
         planes.clear();
         keys.clear();
+        self.clear();
     }
     Index size() const { return static_cast<Index>(planes.size()); }
     /// The body of contact c's first term (the node a collision contact is for).
@@ -75,11 +78,12 @@ struct BodyContacts {
         return count;
     }
     /// Closes the constraint made of the terms added since the last one.
-    void close(const PlaneCollider& plane, int key = -1)
+    void close(const PlaneCollider& plane, int key = -1, bool is_self = false)
     {
         offsets.push_back(static_cast<int>(terms.size()));
         planes.push_back(plane);
         keys.push_back(key);
+        self.push_back(is_self ? 1 : 0);
     }
 };
 
@@ -167,6 +171,10 @@ private:
         /// a full-space body's directions read only the contacts' nodes).
         std::vector<int> read_rows;
         std::vector<char> read_mark; ///< find_read_rows' scratch, per response row
+        /// A reduced body's 1 / A_ii per node, A its full-space system (empty: full space): the
+        /// compliance floor of its self contacts (docs/method.md, "Self contacts of reduced
+        /// bodies").
+        VecX local_compliance;
     };
 
     void init_body(int b, PdSolver& solver);
@@ -174,6 +182,9 @@ private:
     void add_body_contacts(
         const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
     void add_side(Record& record, int body, int first, int count);
+    /// The compliance floor of a self contact: sum over its terms of w^2 / A_ii on its body, 0
+    /// on a full-space body.
+    double self_compliance_floor(const Record& record) const;
     void prepare_responses(const std::vector<ContactBodyState>& bodies);
     /// Each stepped body's BodyData::read_rows.
     void find_read_rows();

@@ -10,6 +10,7 @@
 #include "common/error.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/contact.hpp"
+#include "runtime/pd/contact_stage.hpp"
 #include "runtime/pd/solver.hpp"
 #include "runtime/state.hpp"
 #include "tests/runtime/runtime_test_models.hpp"
@@ -358,6 +359,55 @@ namespace {
         bad.terms.push_back(ContactTerm { 1, 0, 1.0 }); // no body 1
         bad.close(ground);
         EXPECT_THROW(step_with_contacts(node_solver, stage, b, next, bad), Error);
+    }
+
+    TEST(PlaneContact, SelfContactsOfReducedBodiesAreNeverStifferThanTheFullDiagonal)
+    {
+        // A self contact pulls two nodes on opposite sides of the baked cube 1 cm towards each
+        // other. A reduced body moves them apart only through its few handles, so its own
+        // coupling W_cc is small and would take a large force; the stage's compliance floor, the
+        // full-space system's diagonal bound sum_t w_t^2 / A_tt, caps the force at 1 cm over that
+        // bound. A full-space body has the local compliance in W already: no floor there.
+        const BakeData& bake = test::shipped_cube_bake();
+        const Model model(bake, Material {}, ModelOptions {});
+        const MatX3& rest = model.rest_positions();
+        Index low = 0, high = 0;
+        for (Index i = 0; i < model.num_nodes(); ++i) {
+            low = rest(i, 0) < rest(low, 0) ? i : low;
+            high = rest(i, 0) > rest(high, 0) ? i : high;
+        }
+        const double depth = 0.01;
+        const Eigen::SparseMatrix<double>& system = model.full_system();
+        const double floor = 1.0 / system.coeff(high, high) + 1.0 / system.coeff(low, low);
+        SolverOptions options;
+        options.gravity = Vec3::Zero();
+        for (const SolverKind kind : { SolverKind::semi_reduced, SolverKind::full }) {
+            double pull[2] = {};
+            for (const bool is_self : { false, true }) {
+                // r = x_high - x_low along x, held at most its rest length less 1 cm.
+                BodyContacts contacts;
+                contacts.terms.push_back(ContactTerm { 0, static_cast<int>(high), 1.0 });
+                contacts.terms.push_back(ContactTerm { 0, static_cast<int>(low), -1.0 });
+                PlaneCollider plane;
+                plane.normal = -Vec3::UnitX();
+                plane.point = (rest.row(high) - rest.row(low)).transpose() + depth * plane.normal;
+                plane.friction = 0.0;
+                contacts.close(plane, -1, is_self);
+                auto solver = make_solver(kind, model, options);
+                ContactStage stage(1);
+                State out;
+                step_with_contacts(*solver, stage, State::at_rest(model), out, contacts);
+                pull[is_self ? 1 : 0] = -stage.forces()(0, 0);
+            }
+            const std::string name = kind == SolverKind::full ? "full" : "semi";
+            EXPECT_GT(pull[0], 0.0) << name;
+            if (kind == SolverKind::full) {
+                EXPECT_EQ(pull[1], pull[0]); // no floor in full space
+            } else {
+                EXPECT_LE(pull[1] * floor, depth * (1.0 + 1e-9)) << name;
+                EXPECT_LT(pull[1], 0.5 * pull[0]) << name; // the floor acts
+            }
+        }
     }
 
     TEST(PlaneContact, SlidingCubeDeceleratesByCoulombFriction)
