@@ -49,6 +49,9 @@ void CollisionWorld::add_body(std::shared_ptr<const BodyModel> model)
 {
     MAT_CHECK(model != nullptr, "collision: add_body without a model");
     Body body(std::move(model));
+    // Every triangle inside each enlarged primitive that lists it (docs/method.md, section 4).
+    body.bounds.cover_faces(
+        body.model->primitives(), body.model->surface().faces(), body.model->rest_surface());
 
     // The contact points: the surface vertices, grouped by the primitive that encloses each.
     const Index num_primitives = body.model->primitives().primitive_kind.size();

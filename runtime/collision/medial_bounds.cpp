@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "common/error.hpp"
 #include "runtime/collision/medial_bounds_kernels.hpp"
+#include "runtime/collision/triangle_tests.hpp"
 
 namespace mat {
 
@@ -195,6 +197,7 @@ void MedialBounds::file_surface_vertices(const MedialCollisionData& collision)
     }
     for (Index p = 0; p < num_primitives; ++p)
         m_vertex_begin(p + 1) += m_vertex_begin(p);
+    m_num_surface_vertices = num_vertices;
     m_vertices.resize(num_vertices);
     m_vertex_parameter.resize(num_vertices, 3);
     VecXi fill = m_vertex_begin.head(num_primitives);
@@ -202,6 +205,68 @@ void MedialBounds::file_surface_vertices(const MedialCollisionData& collision)
         const int at = fill(collision.vertex_primitive(v))++;
         m_vertices(at) = static_cast<int>(v);
         m_vertex_parameter.row(at) = collision.vertex_parameter.row(v);
+    }
+}
+
+void MedialBounds::cover_faces(const MedialCollisionData& collision,
+    const Eigen::Ref<const MatX3i>& faces, const Eigen::Ref<const MatX3>& rest_surface)
+{
+    const Index num_primitives = this->num_primitives();
+    if (rest_surface.rows() != m_num_surface_vertices
+        || collision.face_primitives_indptr.size() != num_primitives + 1)
+        throw_error("medial bounds: cover_faces with {} vertices and {} face lists, expected {} "
+                    "and {}",
+            rest_surface.rows(), collision.face_primitives_indptr.size() - 1,
+            m_num_surface_vertices, num_primitives);
+    std::vector<int> begin { 0 };
+    std::vector<int> vertices;
+    std::vector<Vec3> parameters;
+    std::vector<int> corners;
+    for (Index p = 0; p < num_primitives; ++p) {
+        for (int at = m_vertex_begin(p); at < m_vertex_begin(p + 1); ++at) {
+            vertices.push_back(m_vertices(at));
+            parameters.push_back(m_vertex_parameter.row(at).transpose());
+        }
+        corners.clear();
+        for (int i = collision.face_primitives_indptr(p);
+             i < collision.face_primitives_indptr(p + 1); ++i) {
+            const int f = collision.face_primitives(i);
+            if (f < 0 || f >= faces.rows())
+                throw_error("medial bounds: primitive {} lists face {} of {}", p, f, faces.rows());
+            for (int k = 0; k < 3; ++k)
+                if (collision.vertex_primitive(faces(f, k)) != p)
+                    corners.push_back(faces(f, k));
+        }
+        std::sort(corners.begin(), corners.end());
+        corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+        for (const int v : corners) {
+            vertices.push_back(v);
+            parameters.push_back(nearest_parameter(p, rest_surface.row(v).transpose()));
+        }
+        begin.push_back(static_cast<int>(vertices.size()));
+    }
+    m_vertex_begin = Eigen::Map<const VecXi>(begin.data(), static_cast<Index>(begin.size()));
+    m_vertices = Eigen::Map<const VecXi>(vertices.data(), static_cast<Index>(vertices.size()));
+    m_vertex_parameter.resize(static_cast<Index>(parameters.size()), 3);
+    for (std::size_t i = 0; i < parameters.size(); ++i)
+        m_vertex_parameter.row(static_cast<Index>(i)) = parameters[i].transpose();
+}
+
+Vec3 MedialBounds::nearest_parameter(Index p, const Vec3& x) const
+{
+    const auto center
+        = [&](int i) -> Vec3 { return m_rest_centers.row(m_primitive_spheres(p, i)).transpose(); };
+    switch (m_counts(p)) {
+    case 1:
+        return Vec3(1.0, 0.0, 0.0);
+    case 2: {
+        const Vec3 a = center(0), d = center(1) - a;
+        const double length = d.squaredNorm();
+        const double s = length > 0.0 ? std::clamp(d.dot(x - a) / length, 0.0, 1.0) : 0.0;
+        return Vec3(1.0 - s, s, 0.0);
+    }
+    default:
+        return point_triangle_closest(x, center(0), center(1), center(2)).barycentric;
     }
 }
 
@@ -251,9 +316,10 @@ void MedialBounds::update(const Eigen::Ref<const MatX3>& q, RadiusUpdate mode)
 void MedialBounds::update_from_positions(const Eigen::Ref<const MatX3>& surface_positions,
     const Eigen::Ref<const MatX3>& sphere_centers, RadiusUpdate mode)
 {
-    if (surface_positions.rows() != m_vertices.size() || sphere_centers.rows() != num_spheres())
+    if (surface_positions.rows() != m_num_surface_vertices
+        || sphere_centers.rows() != num_spheres())
         throw_error("medial bounds: {} surface positions and {} sphere centers, expected {} and {}",
-            surface_positions.rows(), sphere_centers.rows(), m_vertices.size(), num_spheres());
+            surface_positions.rows(), sphere_centers.rows(), m_num_surface_vertices, num_spheres());
     m_sphere_centers = sphere_centers;
     tbb::parallel_for(tbb::blocked_range<Index>(0, num_primitives(), grain),
         [&](const tbb::blocked_range<Index>& range) {

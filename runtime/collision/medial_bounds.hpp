@@ -75,10 +75,22 @@ public:
     /// and delta_P = max(0, max over the surface vertices assigned to P of |x' - c'(t)| - r(t)),
     /// x' from `surface_positions`  #Vs x 3, t the vertex's sphere weights. Exact for the
     /// vertices only: each vertex lies in its enlarged sphere at t, and no smaller uniform
-    /// increment achieves that; points of the surface between vertices are not covered.
+    /// increment achieves that. After cover_faces() the maximum also runs over the other
+    /// corners of the triangles listed under P, so that every such triangle lies in the enlarged
+    /// primitive (which is convex).
     /// `mode` lazy: the centers only, increments 0 (the other modes are the exact update).
     void update_from_positions(const Eigen::Ref<const MatX3>& surface_positions,
         const Eigen::Ref<const MatX3>& sphere_centers, RadiusUpdate mode = RadiusUpdate::bound);
+
+    /// Adds to each primitive's vertices the other corners of the triangles listed under it
+    /// (MedialCollisionData::face_primitives), each with the sphere weights of its nearest point
+    /// on the primitive's center simplex at rest; update_from_positions() then encloses every
+    /// listed triangle, not only its own vertices, so no intersection between triangles lies
+    /// outside the primitives that list them (docs/method.md, section 4).
+    ///   faces         #F x 3 surface triangles
+    ///   rest_surface  #Vs x 3 the surface at rest (the medial mesh's coordinates)
+    void cover_faces(const MedialCollisionData& collision, const Eigen::Ref<const MatX3i>& faces,
+        const Eigen::Ref<const MatX3>& rest_surface);
 
     Index num_primitives() const { return m_counts.size(); }
     Index num_spheres() const { return m_rest_centers.rows(); }
@@ -132,6 +144,8 @@ private:
     Mat3 primitive_rotation(Index p) const;
     double bound_increment(Index p, const Eigen::Ref<const MatX3>& q, bool remove_rigid);
     void write_primitive(Index p, double increment);
+    /// The sphere weights of the point of primitive p's center simplex (at rest) nearest to x.
+    Vec3 nearest_parameter(Index p, const Vec3& x) const;
 
     // ---- immutable after construction ----
     Index m_num_columns = 0;
@@ -143,9 +157,12 @@ private:
     MatX3i m_primitive_spheres; ///< #P x 3
     VecXi m_entry_begin; ///< #P + 1
     std::vector<BoundEntry> m_entries;
-    VecXi m_vertex_begin; ///< #P + 1, CSR of the surface vertices assigned to each primitive
+    /// #P + 1, CSR of the surface vertices assigned to each primitive (after cover_faces(),
+    /// with the other corners of its triangles)
+    VecXi m_vertex_begin;
     VecXi m_vertices; ///< vertex indices
-    MatX3 m_vertex_parameter; ///< #Vs x 3, in the order of m_vertices
+    MatX3 m_vertex_parameter; ///< sphere weights, in the order of m_vertices
+    Index m_num_surface_vertices = 0; ///< #Vs
     double m_length = 1.0; ///< size of the rest medial mesh (box diagonal + 2 max radius)
 
     // ---- scratch, sized at construction ----

@@ -22,29 +22,31 @@ inline MatX3 affine_q(const BakeData& bake, const Mat3& a, const Vec3& t)
     return q;
 }
 
+/// Whether x lies in primitive p of `bounds` (enlarged, deformed), within `tolerance`.
+inline bool primitive_contains(const MedialBounds& bounds, Index p, const Vec3& x, double tolerance)
+{
+    switch (bounds.counts()(p)) {
+    case 1:
+        return bounds.sphere(p, 0).contains(x, tolerance);
+    case 2:
+        return MedialCone(bounds.sphere(p, 0), bounds.sphere(p, 1)).contains(x, tolerance);
+    default:
+        return MedialSlab(bounds.sphere(p, 0), bounds.sphere(p, 1), bounds.sphere(p, 2))
+            .contains(x, tolerance);
+    }
+}
+
 /// How many surface vertices (`positions`  #Vs x 3) lie outside their enlarged, deformed
-/// primitive by more than `tolerance`.
+/// primitive (the one they are assigned to) by more than `tolerance`.
 inline int count_outside(
     const MedialBounds& bounds, const BakeData& bake, const MatX3& positions, double tolerance)
 {
     int outside = 0;
-    for (Index v = 0; v < positions.rows(); ++v) {
-        const Index p = bake.collision.vertex_primitive(v);
-        const Vec3 x = positions.row(v).transpose();
-        bool inside = false;
-        switch (bounds.counts()(p)) {
-        case 1:
-            inside = bounds.sphere(p, 0).contains(x, tolerance);
-            break;
-        case 2:
-            inside = MedialCone(bounds.sphere(p, 0), bounds.sphere(p, 1)).contains(x, tolerance);
-            break;
-        default:
-            inside = MedialSlab(bounds.sphere(p, 0), bounds.sphere(p, 1), bounds.sphere(p, 2))
-                         .contains(x, tolerance);
-        }
-        outside += inside ? 0 : 1;
-    }
+    for (Index v = 0; v < positions.rows(); ++v)
+        outside += primitive_contains(bounds, bake.collision.vertex_primitive(v),
+                       positions.row(v).transpose(), tolerance)
+            ? 0
+            : 1;
     return outside;
 }
 

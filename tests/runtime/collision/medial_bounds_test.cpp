@@ -239,6 +239,59 @@ namespace {
         EXPECT_GT(lazy_misses_large, 0);
     }
 
+    TEST(MedialBounds, CoveredFacesLieInsideEveryPrimitiveThatListsThem)
+    {
+        // With cover_faces(), the exact update holds each triangle listed under a primitive,
+        // corners and inner points, so an intersection of two triangles lies in two primitives
+        // that list them. Without it only the primitive's own vertices are held: a triangle whose
+        // corners belong to different primitives sticks out, at rest already.
+        const BakeData& bake = cube_bake();
+        const MedialCollisionData& collision = bake.collision;
+        const double tolerance = 1e-12; // the cube's edge is 1
+        // Corners, edge midpoints and the centroid of face f at `positions`.
+        const auto face_points = [&](const MatX3& positions, Index f) {
+            std::vector<Vec3> points;
+            const Vec3 a = positions.row(bake.surface.faces(f, 0)).transpose();
+            const Vec3 b = positions.row(bake.surface.faces(f, 1)).transpose();
+            const Vec3 c = positions.row(bake.surface.faces(f, 2)).transpose();
+            for (const Vec3& x : { a, b, c, Vec3(0.5 * (a + b)), Vec3(0.5 * (b + c)),
+                     Vec3(0.5 * (a + c)), Vec3((a + b + c) / 3.0) })
+                points.push_back(x);
+            return points;
+        };
+        const auto count_sticking_out = [&](const MedialBounds& bounds, const MatX3& positions) {
+            int out = 0;
+            for (Index p = 0; p < bounds.num_primitives(); ++p)
+                for (int i = collision.face_primitives_indptr(p);
+                     i < collision.face_primitives_indptr(p + 1); ++i)
+                    for (const Vec3& x : face_points(positions, collision.face_primitives(i)))
+                        out += test::primitive_contains(bounds, p, x, tolerance) ? 0 : 1;
+            return out;
+        };
+        MedialBounds vertices_only(bake);
+        vertices_only.update_from_positions(bake.surface.positions, bake.medial.centers);
+        EXPECT_GT(count_sticking_out(vertices_only, bake.surface.positions), 0);
+
+        MedialBounds covered(bake);
+        covered.cover_faces(collision, bake.surface.faces, bake.surface.positions);
+        std::mt19937 rng(7);
+        std::normal_distribution<double> normal;
+        for (int c = 0; c < 8; ++c) {
+            MatX3 q = affine_q(bake, random_rotation(rng, EIGEN_PI) - Mat3::Identity(),
+                Vec3(normal(rng), normal(rng), normal(rng)));
+            for (Index row = 0; row < q.rows(); ++row)
+                for (int d = 0; d < 3; ++d)
+                    q(row, d) += 0.05 * c * normal(rng);
+            const MatX3 positions = surface_positions(bake, q);
+            covered.update_from_positions(positions, bake.medial.centers + bake.medial_basis * q);
+            EXPECT_EQ(count_sticking_out(covered, positions), 0) << "case " << c;
+            EXPECT_EQ(count_outside(covered, bake, positions, tolerance), 0) << "case " << c;
+        }
+        EXPECT_THROW(
+            covered.cover_faces(collision, bake.surface.faces, bake.surface.positions.topRows(3)),
+            Error);
+    }
+
     TEST(MedialBounds, SameResultForAnyThreadCount)
     {
         const BakeData& bake = cube_bake();
