@@ -223,10 +223,12 @@ void MedialBounds::cover_faces(const MedialCollisionData& collision,
     std::vector<Vec3> parameters;
     std::vector<int> corners;
     for (Index p = 0; p < num_primitives; ++p) {
-        for (int at = m_vertex_begin(p); at < m_vertex_begin(p + 1); ++at) {
-            vertices.push_back(m_vertices(at));
-            parameters.push_back(m_vertex_parameter.row(at).transpose());
-        }
+        // The vertices assigned to p (a second call adds the same corners again, not twice).
+        for (int at = m_vertex_begin(p); at < m_vertex_begin(p + 1); ++at)
+            if (collision.vertex_primitive(m_vertices(at)) == p) {
+                vertices.push_back(m_vertices(at));
+                parameters.push_back(m_vertex_parameter.row(at).transpose());
+            }
         corners.clear();
         for (int i = collision.face_primitives_indptr(p);
              i < collision.face_primitives_indptr(p + 1); ++i) {

@@ -86,7 +86,9 @@ public:
     /// (MedialCollisionData::face_primitives), each with the sphere weights of its nearest point
     /// on the primitive's center simplex at rest; update_from_positions() then encloses every
     /// listed triangle, not only its own vertices, so no intersection between triangles lies
-    /// outside the primitives that list them (docs/method.md, section 4).
+    /// outside the primitives that list them (docs/method.md, section 4). The handle bound of
+    /// update() still covers the assigned vertices only (a comparison variant). Calling it again
+    /// changes nothing.
     ///   faces         #F x 3 surface triangles
     ///   rest_surface  #Vs x 3 the surface at rest (the medial mesh's coordinates)
     void cover_faces(const MedialCollisionData& collision, const Eigen::Ref<const MatX3i>& faces,

@@ -287,6 +287,15 @@ namespace {
             EXPECT_EQ(count_sticking_out(covered, positions), 0) << "case " << c;
             EXPECT_EQ(count_outside(covered, bake, positions, tolerance), 0) << "case " << c;
         }
+        // A second call changes nothing; at rest the corners of other primitives stick out of
+        // a primitive, so the covered increments are not all 0 there.
+        const MatX3 rest = surface_positions(bake, MatX3::Zero(bake.num_columns(), 3));
+        covered.update_from_positions(rest, bake.medial.centers);
+        const VecX at_rest = covered.increments();
+        covered.cover_faces(collision, bake.surface.faces, bake.surface.positions);
+        covered.update_from_positions(rest, bake.medial.centers);
+        EXPECT_EQ(covered.increments(), at_rest);
+        EXPECT_GT(at_rest.maxCoeff(), 0.0);
         EXPECT_THROW(
             covered.cover_faces(collision, bake.surface.faces, bake.surface.positions.topRows(3)),
             Error);
