@@ -32,8 +32,8 @@ struct TetrahedralizeOptions {
     /// smallest dihedral angle of perturb_sliver_bound degrees. The creature at the default
     /// size: minimum dihedral angle 4.7 -> 8.8 degrees, meshing 0.2 -> 4.8 s; the armadillo
     /// (35k tets): 4.2 -> 8.7 degrees, 0.6 -> 3.3 s. The time rises steeply with the bound: the
-    /// armadillo at tet size 0.06 (1.9k tets) meshes in 0.09 s without, 1.0 s at 10 degrees,
-    /// 4 s at 12 and 33 s at 15.
+    /// armadillo at tet size 0.06 (1.9k tets) meshes in 0.1 s without, 1.3 s at 10 degrees and
+    /// 33 s at 15 (its whole bake: 1.6 s, 2.9 s at 10, 5.8 s at 12, 35 s at 15).
     bool perturb = true;
     double perturb_sliver_bound = 10.0;
     bool detect_features = false; ///< protect sharp edges (dihedral angle below feature_angle)

@@ -287,8 +287,8 @@ namespace {
             EXPECT_EQ(count_sticking_out(covered, positions), 0) << "case " << c;
             EXPECT_EQ(count_outside(covered, bake, positions, tolerance), 0) << "case " << c;
         }
-        // A second call changes nothing; at rest the corners of other primitives stick out of
-        // a primitive, so the covered increments are not all 0 there.
+        // A second call gives the same increments; at rest the corners of other primitives
+        // stick out of a primitive, so the covered increments are not all 0 there.
         const MatX3 rest = surface_positions(bake, MatX3::Zero(bake.num_columns(), 3));
         covered.update_from_positions(rest, bake.medial.centers);
         const VecX at_rest = covered.increments();
