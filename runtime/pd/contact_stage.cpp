@@ -392,6 +392,8 @@ void ContactStage::end_step()
             solver->report().contact_sweeps = m_sweeps;
             solver->report().max_penetration = 0.0;
             solver->report().contact_impulse.setZero();
+            solver->report().contact_moment.setZero();
+            solver->report().world_contact = false;
         }
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = 0; a < m; ++a) {
@@ -425,8 +427,20 @@ void ContactStage::end_step()
             double weight = 0.0;
             for (int k = side.first; k < side.first + side.count; ++k)
                 weight += m_term_weight[static_cast<std::size_t>(k)];
-            solver.report().contact_impulse
-                += (weight * solver.model().time_step()) * m_forces.row(a).transpose();
+            const double h = solver.model().time_step();
+            solver.report().contact_impulse += (weight * h) * m_forces.row(a).transpose();
+            // Pushed by the world: a ground plane, or a body that is not stepped.
+            if (record.num_sides == 1 && std::abs(weight) > 0.5
+                && m_forces.row(a).squaredNorm() > 0.0)
+                solver.report().world_contact = true;
+            // Its moment at the start of the step, about the origin
+            // (runtime/pd/angular_momentum.hpp).
+            const MatX3& begin = solver.step_start_positions();
+            for (int k = side.first; k < side.first + side.count; ++k) {
+                const Index node = m_term_node[static_cast<std::size_t>(k)];
+                solver.report().contact_moment += begin.row(node).transpose().cross(
+                    (m_term_weight[static_cast<std::size_t>(k)] * h) * m_forces.row(a).transpose());
+            }
         }
         const PlaneCollider& plane = m_planes[static_cast<std::size_t>(m_pairs[a].plane)];
         StepReport& report = m_solvers[static_cast<std::size_t>(record.sides[0].body)]->report();

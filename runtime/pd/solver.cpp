@@ -380,6 +380,13 @@ void PdSolver::end_step()
         for (Index i = range.begin(); i != range.end(); ++i)
             out.velocities.row(i) = scale * (out.positions.row(i) - in.positions.row(i));
     });
+    // Internal forces exert no net moment (runtime/pd/angular_momentum.hpp): kept for a body
+    // that nothing outside the bodies holds in this step.
+    if (m_options.keep_angular_momentum && m_model->pinned_nodes().empty()
+        && !m_report.world_contact)
+        m_angular.apply(m_model->masses(), in.positions, in.velocities, out.positions,
+            m_model->time_step(), m_report.contact_impulse, m_report.contact_moment,
+            1.0 - m_options.damping, out.velocities);
     m_in = nullptr;
     m_out = nullptr;
     if (!out.positions.allFinite())

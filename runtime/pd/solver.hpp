@@ -18,7 +18,9 @@
 //     local step at x -> r;  global step A x = M s / h^2 + r + P p  (p: the pin targets now)
 //     contact stage on the global steps' results: exact Signorini-Coulomb conditions for every
 //     contact of every body, inside the iteration (docs/method.md, "Contact")
-//   v_{n+1} = (1 - damping) (x - x_n) / h
+//   v_{n+1} = (1 - damping) (x - x_n) / h, plus (keep_angular_momentum, a body that nothing
+//     outside the bodies holds) the rigid rotation that gives it back the angular momentum its
+//     internal forces changed (runtime/pd/angular_momentum.hpp)
 // With `acceleration` anderson, each iteration's global solution is extrapolated from the last
 // ones (Anderson acceleration, runtime/pd/anderson.hpp) and an extrapolation that raises the PD
 // energy (hyper-reduced: the fixed-point residual) is replaced by the plain iterate; steps with
@@ -45,6 +47,7 @@
 #include "runtime/gpu/device_step.hpp"
 #include "runtime/model.hpp"
 #include "runtime/pd/anderson.hpp"
+#include "runtime/pd/angular_momentum.hpp"
 #include "runtime/pd/contact.hpp"
 #include "runtime/pd/contact_stage.hpp"
 #include "runtime/pd/global_step.hpp"
@@ -90,6 +93,10 @@ struct SolverOptions {
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;
+    /// A body without pins that no ground plane or constant body pushes in a step ends it with
+    /// the angular momentum its contact impulses give it (runtime/pd/angular_momentum.hpp); the
+    /// CPU path only.
+    bool keep_angular_momentum = true;
 };
 
 /// What the last step did.
@@ -101,6 +108,12 @@ struct StepReport {
     /// The contact forces on the body over the step times the step (N s): what the contacts
     /// added to its momentum.
     Vec3 contact_impulse = Vec3::Zero();
+    /// The moment of those impulses about the origin, each taken at the start-of-step position
+    /// of the node it acts on (kg m^2/s; runtime/pd/angular_momentum.hpp).
+    Vec3 contact_moment = Vec3::Zero();
+    /// Whether a ground plane or a body that is not stepped (static, kinematic, asleep) pushed
+    /// the body in the step.
+    bool world_contact = false;
     /// With acceleration on and no contact candidates: the safeguard's measure of the last
     /// accepted iterate (set by each iterate(): its PD energy, J, or for the hyper-reduced
     /// solver its fixed-point residual), the extrapolated iterates accepted and those the
@@ -227,6 +240,8 @@ public:
     const MatX3& inertia_target() const { return m_inertia; }
     /// The step's positions  n x 3 (after the last finish_iteration, the step's result).
     const MatX3& step_positions() const { return m_out->positions; }
+    /// The step's start positions  n x 3 (on the host; between begin_step and end_step).
+    const MatX3& step_start_positions() const { return m_in->positions; }
     StepReport& report() { return m_report; }
     void add_contact_seconds(double seconds) { m_timings.contact += seconds; }
     /// The contact stage's candidate nodes of this body in the step (set at its begin_step):
@@ -253,6 +268,7 @@ private:
     bool m_accelerating = false; ///< in this step
     bool m_extrapolated = false; ///< the iterate the next iterate() reads is extrapolated
     AndersonAcceleration m_anderson;
+    AngularMomentumKeeper m_angular;
     VecX m_anderson_weights; ///< the least squares' weights (made on the first accelerated step)
     /// --device cuda: the step runs there; the CPU's global step stays the contact stage's
     /// view of it (q is brought over in each iteration of a step with contact candidates).

@@ -47,6 +47,8 @@ struct SolverSettings {
     ProjectionMode projections = ProjectionMode::fast; ///< "fast" or "exact"
     AccelerationMode acceleration = AccelerationMode::none; ///< "none" or "anderson"
     DeviceMode device = DeviceMode::cpu; ///< "cpu" or "cuda" (the semi-reduced step on a GPU)
+    /// "keep" (true) or "integrator" (SolverOptions::keep_angular_momentum)
+    bool keep_angular_momentum = true;
     int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"

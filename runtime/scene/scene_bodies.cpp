@@ -114,6 +114,7 @@ namespace {
             ? Acceleration::anderson
             : Acceleration::none;
         options.anderson_window = scene.solver.anderson_window;
+        options.keep_angular_momentum = scene.solver.keep_angular_momentum;
         options.device = scene.solver.device == DeviceMode::cuda ? Device::cuda : Device::cpu;
         options.contact_margin = scene.solver.contact_margin;
         for (const ColliderSettings& collider : scene.colliders)

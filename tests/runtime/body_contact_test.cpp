@@ -95,9 +95,11 @@ namespace {
         const Momenta before = momenta(simulation);
         const double p0 = before.linear.norm();
         ASSERT_GT(p0, 0.0);
-        // Momenta right after the impact (the first step without contacts after some): implicit
-        // Euler damps rotation by itself (a capsule spinning at 3 rad/s loses 8.5% of its
-        // angular momentum in 40 steps without any contact), so the angular check is made there.
+        // Momenta right after the impact (the first step without contacts after some). Angular
+        // momentum holds because the solver keeps it (solver.angular_momentum "keep", the
+        // default): measured 0.07-0.81% off here; with "integrator" 3.0-7.5% at these offsets
+        // (0.87% in full space at 0.1 m), the part implicit Euler and the iterations give the
+        // elastic forces.
         int contact_steps = 0;
         Momenta after;
         for (int s = 0; s < scene.frames * scene.steps_per_frame; ++s) {
@@ -119,6 +121,7 @@ namespace {
             // |L| at the start is the mover's offset times its momentum.
             const double l0 = before.angular.norm();
             ASSERT_GT(l0, 0.0);
+
             EXPECT_LE((after.angular - before.angular).norm(), 0.02 * l0)
                 << "before " << before.angular.transpose() << ", after "
                 << after.angular.transpose();
@@ -135,6 +138,10 @@ namespace {
             { SolverKind::semi_reduced, SolverKind::full, SolverKind::hyper_reduced })
             for (const double ratio : { 1.0, 10.0, 100.0 })
                 result.push_back({ solver, ratio, 0.0 });
+        for (const SolverKind solver :
+            { SolverKind::semi_reduced, SolverKind::full, SolverKind::hyper_reduced })
+            for (const double offset : { 0.06, 0.1 })
+                result.push_back({ solver, 1.0, offset });
         return result;
     }
 
@@ -145,7 +152,9 @@ namespace {
                            : p.solver == SolverKind::hyper_reduced ? "hyper"
                                                                    : "semi")
                 + "_ratio" + std::to_string(static_cast<int>(p.mass_ratio))
-                + (p.offset != 0.0 ? "_off_centre" : "");
+                + (p.offset != 0.0
+                        ? "_off_centre_" + std::to_string(static_cast<int>(p.offset * 100))
+                        : "");
         });
 
 } // namespace

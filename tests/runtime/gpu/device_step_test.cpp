@@ -60,6 +60,8 @@ namespace {
     RunResult simulate(const Model& model, SolverOptions options, Device device, int steps)
     {
         options.device = device;
+        // The GPU step does not keep angular momentum (docs/gpu.md): both paths run without.
+        options.keep_angular_momentum = false;
         const std::unique_ptr<PdSolver> solver
             = make_solver(SolverKind::semi_reduced, model, options);
         RunResult out;
