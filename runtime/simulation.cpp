@@ -219,13 +219,18 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     Timer timer;
     m_contact_stage->begin_step(views, contacts);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
-    const int iterations = m_scene.time.iterations;
-    for (int iteration = 0; iteration < iterations; ++iteration) {
+    // The last iteration: the scene's count, or (time.tolerance) the one after every body's
+    // iterate changed by less than the tolerance.
+    bool last = false;
+    for (int iteration = 0; !last; ++iteration) {
+        last = true;
+        for (const std::size_t b : m_stepped)
+            last = last && m_bodies[b].solver->is_last_iteration(iteration);
         for (const std::size_t b : m_stepped)
             m_bodies[b].solver->iterate(iteration);
-        m_contact_stage->solve(iteration + 1 == iterations);
+        m_contact_stage->solve(last);
         for (const std::size_t b : m_stepped)
-            m_bodies[b].solver->finish_iteration(iteration);
+            m_bodies[b].solver->finish_iteration(iteration, last);
     }
     m_contact_stage->end_step();
     for (const std::size_t b : m_stepped) {

@@ -29,6 +29,8 @@ namespace {
         if (options.anderson_window < 1 || options.anderson_window > anderson_max_window)
             throw_error("solver: anderson_window {} must be in [1, {}]", options.anderson_window,
                 anderson_max_window);
+        if (!(options.tolerance >= 0.0) || !std::isfinite(options.tolerance))
+            throw_error("solver: tolerance {} must be finite and non-negative", options.tolerance);
         if (!(options.contact_margin >= 0.0))
             throw_error("solver: contact margin {} must be non-negative", options.contact_margin);
         for (std::size_t p = 0; p < options.planes.size(); ++p) {
@@ -40,11 +42,9 @@ namespace {
         }
     }
 
-    /// The weights of Anderson's least squares, per entry of the global step's solution: the
-    /// node masses in full space (x  n x 3 row-major: the M-norm), the diagonal of B^T M B
-    /// reduced (q  k x 3 column-major), scaled to a mean of 1. Unweighted, the coordinates of
-    /// quadratic handles (monomials of the rest positions, small) count for more than they move.
-    VecX acceleration_weights(const Model& model, bool reduced)
+    /// The mass of each entry of the global step's solution: the node masses in full space (x
+    /// n x 3 row-major: the M-norm), the diagonal of B^T M B reduced (q  k x 3 column-major).
+    VecX solution_masses(const Model& model, bool reduced)
     {
         const VecX& masses = model.masses();
         const Index n = model.num_nodes();
@@ -64,6 +64,15 @@ namespace {
             for (int c = 0; c < 3; ++c)
                 weights.segment(c * k, k) = diagonal.cwiseMax(floor);
         }
+        return weights;
+    }
+
+    /// The weights of Anderson's least squares: solution_masses scaled to a mean of 1.
+    /// Unweighted, the coordinates of quadratic handles (monomials of the rest positions, small)
+    /// count for more than they move.
+    VecX acceleration_weights(const Model& model, bool reduced)
+    {
+        const VecX weights = solution_masses(model, reduced);
         return weights / weights.mean();
     }
 
@@ -194,12 +203,16 @@ PdSolver::PdSolver(const Model& model, const SolverOptions& options,
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     m_options.contact.tolerance = options.contact.tolerance * diagonal;
+    m_diagonal = diagonal;
     if (options.device == Device::cuda) {
         if (m_global->reduced_coordinates() == nullptr || m_local->num_tets() != model.num_tets())
             throw_error("--device cuda runs the semi-reduced solver only (--solver semi)");
         if (options.acceleration != Acceleration::none)
             throw_error("--device cuda: solver.acceleration must be none (Anderson acceleration "
                         "runs on the CPU only)");
+        if (options.tolerance > 0.0)
+            throw_error("--device cuda: time.tolerance must be 0 (the GPU runs a step's "
+                        "iterations as one graph)");
         m_device = std::make_unique<DeviceSemiStep>(model, options.gravity, options.damping,
             options.iterations, options.planes, options.exact_projections);
         m_device_margin = options.contact_margin * diagonal;
@@ -230,10 +243,12 @@ void PdSolver::step(const State& in, State& out)
     Timer timer;
     m_own_contacts->begin_step(m_own_state, BodyContacts {});
     m_timings.contact += timer.seconds();
-    for (int iteration = 0; iteration < m_options.iterations; ++iteration) {
+    bool last = false;
+    for (int iteration = 0; !last; ++iteration) {
+        last = is_last_iteration(iteration);
         iterate(iteration);
-        m_own_contacts->solve();
-        finish_iteration(iteration);
+        m_own_contacts->solve(last);
+        finish_iteration(iteration, last);
     }
     m_own_contacts->end_step();
     end_step();
@@ -269,6 +284,7 @@ void PdSolver::begin_step(const State& in, State& out)
     m_global->add_constant_terms(m_rhs_base);
     m_timings.rhs += timer.seconds();
     m_contact_nodes = 0; // the contact stage's begin_step sets it
+    m_change = std::numeric_limits<double>::infinity();
 }
 
 void PdSolver::iterate(int iteration)
@@ -341,13 +357,13 @@ void PdSolver::safeguard(int iteration)
     m_timings.acceleration += timer.seconds();
 }
 
-void PdSolver::finish_iteration(int iteration)
+void PdSolver::finish_iteration(int iteration, bool last)
 {
     if (m_device) {
-        device_finish_iteration(iteration);
+        device_finish_iteration(last);
         return;
     }
-    if (m_accelerating && iteration + 1 < m_options.iterations) {
+    if (m_accelerating && !last) {
         // The next iterate from this one's solve (after the contact stage, which found no
         // candidates): the last solve is kept plain, so the step ends on an accepted iterate.
         Timer timer;
@@ -358,9 +374,50 @@ void PdSolver::finish_iteration(int iteration)
             m_extrapolated = m_anderson.advance(solution.data());
         m_timings.acceleration += timer.seconds();
     }
-    if (m_local->reads_iterate() || iteration + 1 == m_options.iterations)
+    if (m_local->reads_iterate() || last)
         m_global->positions(m_out->positions, m_timings);
+    if (m_options.tolerance > 0.0 && !last)
+        measure_change(iteration);
     ++m_timings.iterations;
+}
+
+bool PdSolver::is_last_iteration(int iteration) const
+{
+    return iteration + 1 >= m_options.iterations || (iteration > 0 && converged());
+}
+
+// How far the iterate still is from the converged step, estimated from its changes
+// (docs/method.md, "Iterations to a tolerance"): c_k = |u_k - u_{k-1}|_W / sqrt(sum m) /
+// diagonal, with W the solution's masses (solution_masses: the M-norm of x in full space, the
+// diagonal of B^T M B on q reduced). The iteration converges linearly, so what is left is
+// about c_k rho / (1 - rho), rho the contraction; rho is taken as the larger of the last two
+// ratios c_k / c_{k-1}, and at 1 or more the estimate is infinite.
+void PdSolver::measure_change(int iteration)
+{
+    const Eigen::Map<VecX> solution = m_global->solution();
+    if (m_solution_masses.size() != solution.size()) {
+        m_solution_masses = solution_masses(*m_model, m_global->reduced_coordinates() != nullptr);
+        m_previous_solution.resize(solution.size());
+    }
+    constexpr double infinity = std::numeric_limits<double>::infinity();
+    if (iteration == 0) {
+        m_changes = { infinity, infinity, infinity };
+    } else {
+        double sum = 0.0;
+        for (Index j = 0; j < solution.size(); ++j) {
+            const double d = solution(j) - m_previous_solution(j);
+            sum += m_solution_masses(j) * d * d;
+        }
+        m_changes
+            = { std::sqrt(sum / m_model->masses().sum()) / m_diagonal, m_changes[0], m_changes[1] };
+    }
+    m_previous_solution = solution;
+    m_change = infinity;
+    if (!std::isfinite(m_changes[2]))
+        return; // fewer than three changes yet
+    const double rho = std::max(m_changes[0] / m_changes[1], m_changes[1] / m_changes[2]);
+    if (rho < 1.0) // (false for NaN: two iterates alike)
+        m_change = m_changes[0] * rho / (1.0 - rho);
 }
 
 void PdSolver::end_step()
@@ -445,14 +502,14 @@ void PdSolver::device_iterate(int iteration)
     m_timings.device += timer.seconds();
 }
 
-void PdSolver::device_finish_iteration(int iteration)
+void PdSolver::device_finish_iteration(bool last)
 {
     Timer timer;
     if (m_contact_nodes > 0) {
         // The contact stage's forces have moved q on the CPU.
         m_device->upload_q(*m_global->reduced_coordinates());
         m_device->reconstruct();
-        if (iteration + 1 == m_options.iterations) // the contact stage's report reads them
+        if (last) // the contact stage's report reads them
             m_device->download_positions(m_out->positions);
     }
     ++m_timings.iterations;

@@ -38,6 +38,8 @@
 // was made for, which must outlive it; step() allocates nothing once the workspace exists,
 // except when the set of contact candidates grows past anything seen before.
 
+#include <array>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -93,6 +95,14 @@ struct SolverOptions {
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;
+    /// Stop a step's iterations once the global step's solution u is estimated to be within
+    /// this of the converged step (0: run `iterations` every step; the most otherwise), then run
+    /// one more, the last. The distance: mass-weighted RMS, sqrt(sum_j m_j (u_j - u*_j)^2 /
+    /// sum_i m_i), relative to the rest bounding-box diagonal, with m_j the node masses in full
+    /// space (the RMS node distance) and the diagonal of B^T M B on the reduced coordinates; it
+    /// is estimated from the last changes of u, c rho / (1 - rho) (PdSolver::measure_change).
+    /// The CPU path only.
+    double tolerance = 0.0;
     /// A body without pins that no ground plane or constant body pushes in a step ends it with
     /// the angular momentum its contact impulses give it (runtime/pd/angular_momentum.hpp); the
     /// CPU path only.
@@ -194,12 +204,19 @@ public:
     // The step in stages, for a driver that steps several bodies with one contact stage over
     // all of them (runtime/pd/contact_stage.hpp; Simulation::step):
     //   begin_step(in, out); contact_stage.begin_step(...);
-    //   for each iteration: iterate(i); contact_stage.solve(); finish_iteration(i);
+    //   for each iteration i until is_last_iteration(i) (then once more, that one last):
+    //     iterate(i); contact_stage.solve(last); finish_iteration(i, last);
     //   contact_stage.end_step(); end_step();
     // `in` and `out` must stay in place until end_step().
     void begin_step(const State& in, State& out);
     void iterate(int iteration);
-    void finish_iteration(int iteration);
+    void finish_iteration(int iteration, bool last);
+    /// Whether iteration `iteration` is the step's last: the options' iterations are done, or
+    /// (tolerance > 0) the one before changed the iterate by less than the tolerance.
+    bool is_last_iteration(int iteration) const;
+    /// With tolerance > 0: whether the iterate is estimated to be within it of the converged
+    /// step after the last finished iteration (see SolverOptions::tolerance).
+    bool converged() const { return m_change < m_options.tolerance; }
     void end_step();
 
     /// Targets of the pinned nodes for the next steps  #pinned x 3 (kinematic motion).
@@ -269,6 +286,12 @@ private:
     bool m_extrapolated = false; ///< the iterate the next iterate() reads is extrapolated
     AndersonAcceleration m_anderson;
     AngularMomentumKeeper m_angular;
+    // The convergence test (SolverOptions::tolerance).
+    double m_diagonal = 0.0; ///< the rest bounding-box diagonal
+    VecX m_solution_masses;
+    VecX m_previous_solution;
+    std::array<double, 3> m_changes {}; ///< the last three iterations' changes, newest first
+    double m_change = std::numeric_limits<double>::infinity(); ///< the estimated distance left
     VecX m_anderson_weights; ///< the least squares' weights (made on the first accelerated step)
     /// --device cuda: the step runs there; the CPU's global step stays the contact stage's
     /// view of it (q is brought over in each iteration of a step with contact candidates).
@@ -288,7 +311,8 @@ private:
     bool holds_on_device(const State& state) const;
     void device_begin_step(const State& in, State& out);
     void device_iterate(int iteration);
-    void device_finish_iteration(int iteration);
+    void device_finish_iteration(bool last);
+    void measure_change(int iteration);
     void device_end_step();
 
     /// At iteration 0: whether this step accelerates, and its start.

@@ -25,7 +25,8 @@ struct TimeSettings {
     int frames = 0;
     std::optional<double> duration; ///< s, as given (frames is derived from it)
     std::optional<double> fps; ///< output frames per second, as given
-    int iterations = 0; ///< PD local/global iterations per step
+    int iterations = 0; ///< PD local/global iterations per step (the most, with a tolerance)
+    double tolerance = 0.0; ///< SolverOptions::tolerance (0: fixed iteration count)
 };
 
 /// The local step's decomposition (SolverOptions::exact_projections).

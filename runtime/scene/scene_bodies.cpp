@@ -107,6 +107,7 @@ namespace {
     {
         SolverOptions options;
         options.iterations = scene.time.iterations;
+        options.tolerance = scene.time.tolerance;
         options.gravity = scene.gravity;
         options.damping = scene.solver.damping;
         options.exact_projections = scene.solver.projections == ProjectionMode::exact;

@@ -192,7 +192,15 @@ namespace {
             value_key(S::time, "iterations", T::integer, &TimeSettings::iterations)
                 .set_default(10)
                 .at_least(1)
-                .set_doc("PD local/global iterations per step")
+                .set_doc("PD local/global iterations per step (with tolerance: the most)"),
+            value_key(S::time, "tolerance", T::number, &TimeSettings::tolerance)
+                .set_default(0.0)
+                .at_least(0)
+                .set_doc("0: every step runs `iterations`; else a step ends after the iteration "
+                         "that follows one changing every object's iterate by less than this, "
+                         "relative to its bounding-box diagonal (mass-weighted RMS; on the "
+                         "reduced coordinates, the diagonal of the reduced mass; docs/method.md, "
+                         "\"Iterations to a tolerance\"); not with --device cuda")
         };
     }
 

@@ -33,6 +33,7 @@ namespace {
         SolverKind solver;
         double mass_ratio; ///< mover density / target density
         double offset; ///< the mover's offset across the line of impact (m)
+        double tolerance = 0.0; ///< time.tolerance (then at most 100 iterations a step)
     };
 
     class ContactMomentumTest : public test::ScratchDirTest,
@@ -43,7 +44,7 @@ namespace {
     std::string scene_text(const MomentumParam& p)
     {
         return fmt::format(R"({{
-  "time": {{ "dt": 0.0166666667, "frames": 40, "iterations": 10 }},
+  "time": {{ "dt": 0.0166666667, "frames": 40, "iterations": {}, "tolerance": {} }},
   "gravity": [0, 0, 0],
   "solver": {{ "collision": "bounded", "collision_friction": 0.0 }},
   "objects": [
@@ -53,7 +54,7 @@ namespace {
       "material": {{ "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000 }} }}
   ]
 }})",
-            p.offset, 1000.0 * p.mass_ratio);
+            p.tolerance > 0.0 ? 100 : 10, p.tolerance, p.offset, 1000.0 * p.mass_ratio);
     }
 
     struct Momenta {
@@ -129,6 +130,12 @@ namespace {
         if (p.mass_ratio > 1.0) {
             EXPECT_GT(after.body_linear[0].x(), 0.0) << "the heavier mover bounced back";
         }
+        if (p.tolerance > 0.0) {
+            // The tolerance ended steps before the 100 iterations.
+            const SolverTimings& timings = simulation.bodies()[0].solver->timings();
+            EXPECT_LT(timings.iterations, 100 * timings.steps);
+            EXPECT_GT(timings.iterations, 3 * timings.steps);
+        }
     }
 
     std::vector<MomentumParam> params()
@@ -143,6 +150,11 @@ namespace {
             for (const double offset : { 0.06, 0.1 })
                 for (const double ratio : { 1.0, 10.0, 100.0 })
                     result.push_back({ solver, ratio, offset });
+        // Iterations to a tolerance: the contact stage's last solve comes with the last
+        // iteration, wherever it falls.
+        for (const SolverKind solver :
+            { SolverKind::semi_reduced, SolverKind::full, SolverKind::hyper_reduced })
+            result.push_back({ solver, 10.0, 0.06, 1e-5 });
         return result;
     }
 
@@ -155,7 +167,8 @@ namespace {
                 + "_ratio" + std::to_string(static_cast<int>(p.mass_ratio))
                 + (p.offset != 0.0
                         ? "_off_centre_" + std::to_string(static_cast<int>(p.offset * 100))
-                        : "");
+                        : "")
+                + (p.tolerance > 0.0 ? "_tolerance" : "");
         });
 
 } // namespace

@@ -310,10 +310,12 @@ namespace {
         solver.begin_step(in, out);
         const std::vector<ContactBodyState> views { { &solver, &in.positions, &in.positions } };
         stage.begin_step(views, contacts);
-        for (int i = 0; i < solver.options().iterations; ++i) {
+        bool last = false;
+        for (int i = 0; !last; ++i) {
+            last = solver.is_last_iteration(i);
             solver.iterate(i);
             stage.solve();
-            solver.finish_iteration(i);
+            solver.finish_iteration(i, last);
         }
         stage.end_step();
         solver.end_step();

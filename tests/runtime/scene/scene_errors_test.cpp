@@ -81,7 +81,8 @@ namespace {
             {"box": {"mni": [0, 0, 0], "max": [1, 1, 1]}}])")),
             "scene.json: objects[0].pins[2].box.mni: unknown key (expected min, max)");
         EXPECT_EQ(error_of(with_top(R"("time": {"step": 0.1})")),
-            "scene.json: time.step: unknown key (expected dt, frames, duration, fps, iterations)");
+            "scene.json: time.step: unknown key (expected dt, frames, duration, fps, iterations, "
+            "tolerance)");
         EXPECT_EQ(error_of(with_top(R"("camera": {})")),
             "scene.json: camera: unknown key (expected time, gravity, solver, objects, colliders, "
             "output)");
