@@ -7,7 +7,11 @@
 # For each scene docs/charts/SCENE.json (a stiff cantilever, a soft drop on the ground, a
 # twisting limb) it bakes the scene's surface with several handle counts, linear and quadratic
 # (same surface and tet size, so the surface vertices correspond), runs
-#   the reference:   full-space PD at REF_ITERATIONS iterations per step,
+#   the reference:   full-space PD with exact projections, converged to REF_TOLERANCE per step
+#                    (time.tolerance: the iterate estimated within that fraction of the
+#                    diagonal of the converged step, mass-weighted RMS; at most REF_ITERATIONS
+#                    iterations), and the same at ten times the tolerance, whose distance to it
+#                    is reported as the reference's own error,
 #   full-space PD:   at each of FULL_ITERATIONS,
 #   reduced methods: each of REDUCED_METHODS (SOLVER:QUADRATIC) on each handle count of HANDLES
 #                    at the scene's 10 iterations (hyper is used only once mat-run accepts
@@ -29,7 +33,7 @@
 #       THREADS=2 docs/make_charts.sh        the same study on bodies of about 50k tets, into its
 #                                            own charts and its own section of benchmarks.md
 #                                            (between <!-- MARKER:begin --> and <!-- MARKER:end -->)
-# Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_ITERATIONS,
+# Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_TOLERANCE, REF_ITERATIONS,
 # FULL_ITERATIONS, HANDLES, REDUCED_METHODS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES, THREADS
 # (default 1), TET_SIZE (0.04), CHARTS_DIR (docs/charts, relative to the repository), MARKER
 # (charts).
@@ -47,9 +51,10 @@ for tool in "$bake" "$run" "$chart"; do
     [ -x "$tool" ] || { echo "make_charts: no $tool (build it, or pass the build directory)" >&2; exit 1; }
 done
 
-# The data: what is run. The reference's own error is reported as the distance between full-space
-# PD at REF_ITERATIONS and at half as many (the last full-space point).
-REF_ITERATIONS="${REF_ITERATIONS:-400}"
+# The data: what is run. The reference is converged by a tolerance (docs/method.md, "Iterations
+# to a tolerance"); the last full-space point (200 iterations) shows how far a fixed count is.
+REF_TOLERANCE="${REF_TOLERANCE:-1e-9}"
+REF_ITERATIONS="${REF_ITERATIONS:-3000}"
 FULL_ITERATIONS="${FULL_ITERATIONS:-1 2 5 10 20 50 100 200}"
 HANDLES="${HANDLES:-4 8 16 24}"
 REDUCED_METHODS="${REDUCED_METHODS:-semi:none semi:all hyper:none hyper:all}"
@@ -86,17 +91,20 @@ read_stats() {
     ' "$1"
 }
 
-# scene_copy SCENE_JSON BAKE ITERATIONS OUT [ACCELERATION]: the scene with its bake and iterations
-# replaced (and solver.acceleration set).
+# scene_copy SCENE_JSON BAKE ITERATIONS OUT [ACCELERATION [TOLERANCE [PROJECTIONS]]]: the scene
+# with its bake and iterations replaced (and solver.acceleration, time.tolerance and
+# solver.projections set).
 scene_copy() {
     sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" \
-        -e "s|\"iterations\": *[0-9]*|\"iterations\": $3|" \
-        -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\" }, \"output\":|" "$1" > "$4"
+        -e "s|\"iterations\": *[0-9]*|\"iterations\": $3, \"tolerance\": ${6:-0}|" \
+        -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\", \"projections\": \"${7:-fast}\" }, \"output\":|" \
+        "$1" > "$4"
     grep -q "\"bake\": \"$2\"" "$4" || { echo "make_charts: could not set the bake in $4" >&2; exit 1; }
 }
 
 mkdir -p "$work"
 csv="$work/results.csv"
+ref_iterations=""
 start_all=$(date +%s)
 if [ -n "${CHARTS_ONLY:-}" ]; then
     [ -s "$csv" ] || { echo "make_charts: CHARTS_ONLY: no $csv (run once without it)" >&2; exit 1; }
@@ -128,16 +136,30 @@ for entry in $SCENES; do
     [ -n "$first" ] || { echo "make_charts: $scene: no bake succeeded" >&2; exit 1; }
     full_bake="$dir/bake_${TET_SIZE}_$first.h5"
 
-    # The reference (full-space at REF_ITERATIONS), written as h5 by the scene's own output.
+    # The reference (full-space to REF_TOLERANCE), written as h5 by the scene's own output.
     # It is kept between runs of this script while the scene, the bake and mat-run are older.
-    ref="reference_$REF_ITERATIONS"
+    ref="reference_${REF_TOLERANCE}_$REF_ITERATIONS"
     reference="$dir/$ref/trajectory.h5"
-    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$ref.json"
-    if [ ! -s "$reference" ] || [ "$reference" -ot "$json" ] || [ "$reference" -ot "$full_bake" ] \
-        || [ "$reference" -ot "$run" ]; then
+    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$ref.json" none "$REF_TOLERANCE" exact
+    if [ ! -s "$reference" ] || [ ! -s "$dir/$ref.stats.json" ] || [ "$reference" -ot "$json" ] \
+        || [ "$reference" -ot "$full_bake" ] || [ "$reference" -ot "$run" ]; then
         "$run" "$dir/$ref.json" -o "$dir/$ref" --solver full --threads "$threads" \
-            --log-level warn > "$dir/$ref.log"
+            --log-level warn --stats "$dir/$ref.stats.json" > "$dir/$ref.log"
     fi
+    # Its mean iterations per step (one body: the frames' iterations over the steps), and its
+    # own error: the distance of the same run at ten times the tolerance.
+    mean_iterations="$(awk '
+        /^ "steps":/ { gsub(/[",]/, ""); steps = $2 }
+        /^   "iterations":/ { gsub(/[",]/, ""); sum += $2 }
+        END { printf "%.0f", sum / steps }' "$dir/$ref.stats.json")"
+    loose="$(awk -v t="$REF_TOLERANCE" 'BEGIN { printf "%g", 10 * t }')"
+    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/reference_loose.json" none "$loose" exact
+    "$run" "$dir/reference_loose.json" -o "$dir/reference_loose" --solver full --threads "$threads" \
+        --log-level warn --reference "$reference" --stats "$dir/reference_loose.stats.json" \
+        > "$dir/reference_loose.log"
+    loose_rms="$(read_stats "$dir/reference_loose.stats.json" | awk '{ printf "%.2g", $2 }')"
+    ref_iterations="$ref_iterations $scene $mean_iterations iterations per step, $loose_rms% at $loose;"
+    echo "make_charts:   reference: $mean_iterations iterations per step on average; at $loose it is $loose_rms% RMS off"
 
     # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME [ACCELERATION]
     run_one() {
@@ -182,7 +204,7 @@ fi
 # The charts and the table; the table replaces docs/benchmarks.md's between the markers.
 mkdir -p "$root/$charts_dir"
 "$chart" "$csv" "$root/$charts_dir" "$work/table.md" --link-dir "${charts_dir#docs/}" \
-    --note "reference: full-space PD at $REF_ITERATIONS iterations per step; tet size $TET_SIZE of the diagonal; ms per step with $threads thread(s)"
+    --note "reference: full-space PD, exact projections, converged per step to an estimated $REF_TOLERANCE of the diagonal (time.tolerance;${ref_iterations%;}); tet size $TET_SIZE of the diagonal; ms per step with $threads thread(s)"
 doc="$root/docs/benchmarks.md"
 grep -q "^<!-- $marker:begin -->\$" "$doc" && grep -q "^<!-- $marker:end -->\$" "$doc" \
     || { echo "make_charts: $doc has no <!-- $marker:begin --> / <!-- $marker:end --> lines" >&2; exit 1; }
