@@ -345,10 +345,11 @@ void run_simulation(const RunOptions& options)
         scene.solver.device = options.device == "cuda" ? DeviceMode::cuda : DeviceMode::cpu;
     const SolverKind solver_kind = parse_solver_kind(options.solver);
     const int frames = checked_frames(options, scene);
-    if (scene.solver.device == DeviceMode::cuda && scene.solver.keep_angular_momentum
+    if (scene.solver.device == DeviceMode::cuda
+        && scene.solver.angular_momentum != AngularMomentumMode::integrator
         && solver_kind == SolverKind::semi_reduced)
         logger().warn("{}: --device cuda steps do not keep angular momentum (solver."
-                      "angular_momentum keep runs on the CPU only; docs/gpu.md)",
+                      "angular_momentum runs on the CPU only; docs/gpu.md)",
             scene.file);
 
     Simulation simulation(scene, load_bodies(scene, solver_kind));

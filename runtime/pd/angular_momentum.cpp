@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 #include <Eigen/Dense>
 #include <tbb/blocked_range.h>
@@ -103,7 +104,7 @@ double AngularMomentumKeeper::apply(const VecX& masses,
         return std::array<double, 12> { l0.x(), l0.y(), l0.z(), l1.x(), l1.y(), l1.z(), inertia[0],
             inertia[1], inertia[2], inertia[3], inertia[4], inertia[5] };
     });
-    // Gravity's moment about c0 at x_n is zero; the pins' and contacts' is moment - c0 x impulse.
+    // Gravity's moment about c0 at x_n is zero; the contacts' is moment - c0 x impulse.
     const Vec3 target = Vec3(second[0], second[1], second[2]) + moment - c0.cross(impulse);
     const Vec3 change = target - Vec3(second[3], second[4], second[5]);
     Eigen::Matrix3d inertia;
@@ -113,7 +114,8 @@ double AngularMomentumKeeper::apply(const VecX& masses,
     const Eigen::LDLT<Eigen::Matrix3d> factor(inertia);
     if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 1e-12 * inertia.trace()))
         return 0.0;
-    const Eigen::RowVector3d w = (velocity_scale * factor.solve(change)).transpose();
+    const Vec3 omega = factor.solve(change);
+    const Eigen::RowVector3d w = (velocity_scale * omega).transpose();
     const Eigen::RowVector3d c = c1.transpose();
     tbb::parallel_for(tbb::blocked_range<Index>(0, n), [&](const tbb::blocked_range<Index>& range) {
         for (Index i = range.begin(); i != range.end(); ++i)

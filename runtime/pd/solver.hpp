@@ -18,9 +18,9 @@
 //     local step at x -> r;  global step A x = M s / h^2 + r + P p  (p: the pin targets now)
 //     contact stage on the global steps' results: exact Signorini-Coulomb conditions for every
 //     contact of every body, inside the iteration (docs/method.md, "Contact")
-//   v_{n+1} = (1 - damping) (x - x_n) / h, plus (keep_angular_momentum, a body that nothing
-//     outside the bodies holds) the rigid rotation that gives it back the angular momentum its
-//     internal forces changed (runtime/pd/angular_momentum.hpp)
+//   v_{n+1} = (1 - damping) (x - x_n) / h, plus (angular_momentum free or keep, for the bodies
+//     it names) the rigid rotation that gives back the angular momentum the internal forces
+//     changed (runtime/pd/angular_momentum.hpp)
 // With `acceleration` anderson, each iteration's global solution is extrapolated from the last
 // ones (Anderson acceleration, runtime/pd/anderson.hpp) and an extrapolation that raises the PD
 // energy (hyper-reduced: the fixed-point residual) is replaced by the plain iterate; steps with
@@ -73,6 +73,11 @@ enum class Acceleration { none, anderson };
 /// "none" or "anderson" -> Acceleration; throws mat::Error otherwise.
 Acceleration parse_acceleration(const std::string& name);
 
+/// Which bodies end a step with the angular momentum their external impulses give them
+/// (runtime/pd/angular_momentum.hpp; docs/method.md, "Angular momentum"): none (integrator: what
+/// implicit Euler and the iterations give), those without pins or contact candidates in the step
+/// (free), or also those that only other stepped bodies push (keep).
+enum class AngularMomentum { integrator, free, keep };
 /// Where the semi-reduced step runs: the CPU, or a CUDA GPU (runtime/gpu/device_step.hpp;
 /// docs/gpu.md). The full-space and hyper-reduced solvers run on the CPU only.
 enum class Device { cpu, cuda };
@@ -103,10 +108,8 @@ struct SolverOptions {
     /// is estimated from the last changes of u, c rho / (1 - rho) (PdSolver::measure_change).
     /// The CPU path only.
     double tolerance = 0.0;
-    /// A body without pins that no ground plane or constant body pushes in a step ends it with
-    /// the angular momentum its contact impulses give it (runtime/pd/angular_momentum.hpp); the
-    /// CPU path only.
-    bool keep_angular_momentum = true;
+    /// Which bodies keep angular momentum (AngularMomentum); the CPU path only.
+    AngularMomentum angular_momentum = AngularMomentum::free;
 };
 
 /// What the last step did.

@@ -31,6 +31,9 @@ struct TimeSettings {
 
 /// The local step's decomposition (SolverOptions::exact_projections).
 enum class ProjectionMode { fast, exact };
+/// Which bodies keep angular momentum (SolverOptions::angular_momentum), in the order of the
+/// scene's choices.
+enum class AngularMomentumMode { free, keep, integrator };
 /// The PD iteration within a step (SolverOptions::acceleration).
 enum class AccelerationMode { none, anderson };
 enum class DeviceMode { cpu, cuda };
@@ -48,8 +51,8 @@ struct SolverSettings {
     ProjectionMode projections = ProjectionMode::fast; ///< "fast" or "exact"
     AccelerationMode acceleration = AccelerationMode::none; ///< "none" or "anderson"
     DeviceMode device = DeviceMode::cpu; ///< "cpu" or "cuda" (the semi-reduced step on a GPU)
-    /// "keep" (true) or "integrator" (SolverOptions::keep_angular_momentum)
-    bool keep_angular_momentum = true;
+    /// "free", "keep" or "integrator" (SolverOptions::angular_momentum)
+    AngularMomentumMode angular_momentum = AngularMomentumMode::free;
     int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"

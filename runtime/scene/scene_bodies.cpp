@@ -115,7 +115,11 @@ namespace {
             ? Acceleration::anderson
             : Acceleration::none;
         options.anderson_window = scene.solver.anderson_window;
-        options.keep_angular_momentum = scene.solver.keep_angular_momentum;
+        options.angular_momentum = scene.solver.angular_momentum == AngularMomentumMode::keep
+            ? AngularMomentum::keep
+            : scene.solver.angular_momentum == AngularMomentumMode::free
+            ? AngularMomentum::free
+            : AngularMomentum::integrator;
         options.device = scene.solver.device == DeviceMode::cuda ? Device::cuda : Device::cpu;
         options.contact_margin = scene.solver.contact_margin;
         for (const ColliderSettings& collider : scene.colliders)

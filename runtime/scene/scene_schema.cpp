@@ -237,15 +237,17 @@ namespace {
                 .set_default("cpu")
                 .set_doc("where the semi-reduced step runs: cpu, or cuda (a GPU; mat-run built "
                          "with -DMAT_CUDA=ON; --device overrides; docs/gpu.md)"),
-            enum_key(S::solver, "angular_momentum", &SolverSettings::keep_angular_momentum,
-                { "keep", "integrator" })
-                .set_default("keep")
-                .set_doc("keep: an object that no pin, ground plane or non-simulated object "
-                         "holds in a step ends it with its start angular momentum plus the "
-                         "moments of the contact impulses (its internal forces exert none); "
-                         "integrator: what implicit Euler and the iterations give, which loses a "
-                         "few percent per second under spin and vibration (docs/method.md, "
-                         "\"Angular momentum\"); --device cuda steps do not keep it"),
+            enum_key(S::solver, "angular_momentum", &SolverSettings::angular_momentum,
+                { "free", "keep", "integrator" })
+                .set_default("free")
+                .set_doc("free: an object without pins or contacts in a step ends it with its "
+                         "start angular momentum (its internal forces exert no net moment; "
+                         "implicit Euler alone loses a few percent per second under spin and "
+                         "vibration); keep: also an object that only other simulated objects "
+                         "push, with the moments of their impulses (momentum kept through "
+                         "impacts, but a stack of stiff objects resting on each other rocks); "
+                         "integrator: what implicit Euler and the iterations give "
+                         "(docs/method.md, \"Angular momentum\"); --device cuda steps keep none"),
             value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)
                 .set_default(5)
                 .at_least(1)

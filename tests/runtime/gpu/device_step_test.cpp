@@ -61,7 +61,7 @@ namespace {
     {
         options.device = device;
         // The GPU step does not keep angular momentum (docs/gpu.md): both paths run without.
-        options.keep_angular_momentum = false;
+        options.angular_momentum = AngularMomentum::integrator;
         const std::unique_ptr<PdSolver> solver
             = make_solver(SolverKind::semi_reduced, model, options);
         RunResult out;

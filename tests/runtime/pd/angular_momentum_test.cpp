@@ -118,7 +118,7 @@ namespace {
         const Model model(test::shipped_cube_bake(), Material {}, test::pd_model_options());
         SolverOptions options;
         options.gravity = Vec3::Zero();
-        options.keep_angular_momentum = keep;
+        options.angular_momentum = keep ? AngularMomentum::free : AngularMomentum::integrator;
         const std::unique_ptr<PdSolver> solver
             = make_solver(kind, model, options, model.num_tets() / 2);
         State state;
