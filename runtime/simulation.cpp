@@ -220,7 +220,7 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     m_contact_stage->begin_step(views, contacts);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
     // The last iteration: the scene's count, or (time.tolerance) the one after every body's
-    // iterate changed by less than the tolerance.
+    // iterate is estimated within the tolerance of its converged step.
     bool last = false;
     for (int iteration = 0; !last; ++iteration) {
         last = true;

@@ -207,15 +207,15 @@ public:
     // The step in stages, for a driver that steps several bodies with one contact stage over
     // all of them (runtime/pd/contact_stage.hpp; Simulation::step):
     //   begin_step(in, out); contact_stage.begin_step(...);
-    //   for each iteration i until is_last_iteration(i) (then once more, that one last):
+    //   for each iteration i, last = is_last_iteration(i) (for all bodies), until a last one:
     //     iterate(i); contact_stage.solve(last); finish_iteration(i, last);
     //   contact_stage.end_step(); end_step();
     // `in` and `out` must stay in place until end_step().
     void begin_step(const State& in, State& out);
     void iterate(int iteration);
     void finish_iteration(int iteration, bool last);
-    /// Whether iteration `iteration` is the step's last: the options' iterations are done, or
-    /// (tolerance > 0) the one before changed the iterate by less than the tolerance.
+    /// Whether iteration `iteration` is the step's last: it is the options' last, or (tolerance
+    /// > 0) the iterate after the one before is estimated within the tolerance (converged()).
     bool is_last_iteration(int iteration) const;
     /// With tolerance > 0: whether the iterate is estimated to be within it of the converged
     /// step after the last finished iteration (see SolverOptions::tolerance).
