@@ -244,8 +244,9 @@ namespace {
                          "start angular momentum (its internal forces exert no net moment; "
                          "implicit Euler alone loses a few percent per second under spin and "
                          "vibration); keep: also an object that only other simulated objects "
-                         "push, with the moments of their impulses (momentum kept through "
-                         "impacts, but a stack of stiff objects resting on each other rocks); "
+                         "push, with the moments of their impulses (kept through impacts "
+                         "between free objects, but stiff objects resting on each other gain "
+                         "energy); "
                          "integrator: what implicit Euler and the iterations give "
                          "(docs/method.md, \"Angular momentum\"); --device cuda steps keep none"),
             value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)
