@@ -41,7 +41,21 @@ public:
 
     /// Calls visit(index, position) for every item whose box overlaps `box` grown by
     /// `grow` on every side (non-finite coordinates fall in the first column).
-    template <class Visit> void overlapping(const Box3& box, double grow, const Visit& visit) const;
+    template <class Visit> void overlapping(const Box3& box, double grow, const Visit& visit) const
+    {
+        overlapping(
+            box, grow, [grow](int) { return grow; }, visit);
+    }
+    /// The same with a grow per column: grow_of(column) in [0, max_grow] (negative: the column
+    /// is skipped) for the items filed in that column (GridItem::column).
+    template <class Grow, class Visit>
+    void overlapping(
+        const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const;
+
+    /// Number of columns; the items filed in column c are at positions [column_begin(c),
+    /// column_begin(c + 1)).
+    int num_columns() const { return static_cast<int>(m_column_start.size()) - 1; }
+    int column_begin(int c) const { return m_column_start[static_cast<std::size_t>(c)]; }
 
 private:
     /// Columns of at most this many items are scanned from their start, without a search.
@@ -67,17 +81,18 @@ private:
     std::vector<GridItem> m_sorted; ///< workspace of the counting sort
 };
 
-template <class Visit>
-void FaceGrid::overlapping(const Box3& box, double grow, const Visit& visit) const
+template <class Grow, class Visit>
+void FaceGrid::overlapping(
+    const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const
 {
     // The boxes that can overlap have their low corner in the columns from (box low -
     // grow - widest box) to (box high + grow), and in each column, their low end on the sweep
     // axis in the same range.
     if (items.empty())
         return;
-    const Box3 grown(box.min().array() - grow, box.max().array() + grow);
-    if (!((grown.min().array() <= m_box.max().array()).all()
-            && (m_box.min().array() <= grown.max().array()).all()))
+    const Box3 widest(box.min().array() - max_grow, box.max().array() + max_grow);
+    if (!((widest.min().array() <= m_box.max().array()).all()
+            && (m_box.min().array() <= widest.max().array()).all()))
         return;
     const int axis = m_axis;
     const int u = (axis + 1) % 3;
@@ -86,15 +101,10 @@ void FaceGrid::overlapping(const Box3& box, double grow, const Visit& visit) con
         const double at = std::floor((x - origin) / cell);
         return !(at >= 0.0) ? 0 : at >= count - 1 ? count - 1 : static_cast<int>(at); // NaN: 0
     };
-    const int u0 = index(grown.min()(u) - m_width_u, m_origin_u, m_cell_u, m_columns_u);
-    const int u1 = index(grown.max()(u), m_origin_u, m_cell_u, m_columns_u);
-    const int v0 = index(grown.min()(v) - m_width_v, m_origin_v, m_cell_v, m_columns_v);
-    const int v1 = index(grown.max()(v), m_origin_v, m_cell_v, m_columns_v);
-    // `from` a few ulps low: a box whose key is just below it cannot then overlap after
-    // rounding, so the scan from a short column's start and the search agree.
-    const double from = grown.min()[axis] - m_width
-        - 4.0 * std::numeric_limits<double>::epsilon() * (std::abs(grown.min()[axis]) + m_width);
-    const double to = grown.max()[axis];
+    const int u0 = index(widest.min()(u) - m_width_u, m_origin_u, m_cell_u, m_columns_u);
+    const int u1 = index(widest.max()(u), m_origin_u, m_cell_u, m_columns_u);
+    const int v0 = index(widest.min()(v) - m_width_v, m_origin_v, m_cell_v, m_columns_v);
+    const int v1 = index(widest.max()(v), m_origin_v, m_cell_v, m_columns_v);
     const double* keys = m_lo[static_cast<std::size_t>(axis)].data();
     const double* lo_u = m_lo[static_cast<std::size_t>(u)].data();
     const double* lo_v = m_lo[static_cast<std::size_t>(v)].data();
@@ -102,11 +112,6 @@ void FaceGrid::overlapping(const Box3& box, double grow, const Visit& visit) con
     const double* hi_u = m_hi[static_cast<std::size_t>(u)].data();
     const double* hi_v = m_hi[static_cast<std::size_t>(v)].data();
     const int* face = m_index.data();
-#if defined(__AVX512F__)
-    const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
-    const __m512d low_u = _mm512_set1_pd(grown.min()(u)), high_u = _mm512_set1_pd(grown.max()(u));
-    const __m512d low_v = _mm512_set1_pd(grown.min()(v)), high_v = _mm512_set1_pd(grown.max()(v));
-#endif
     for (int cv = v0; cv <= v1; ++cv)
         for (int cu = u0; cu <= u1; ++cu) {
             const int c = cv * m_columns_u + cu;
@@ -114,11 +119,26 @@ void FaceGrid::overlapping(const Box3& box, double grow, const Visit& visit) con
             const int end = m_column_start[static_cast<std::size_t>(c + 1)];
             if (begin == end)
                 continue;
+            const double grow = grow_of(c);
+            if (!(grow >= 0.0))
+                continue;
+            const Box3 grown(box.min().array() - grow, box.max().array() + grow);
+            // `from` a few ulps low: a box whose key is just below it cannot then overlap after
+            // rounding, so the scan from a short column's start and the search agree.
+            const double from = grown.min()[axis] - m_width
+                - 4.0 * std::numeric_limits<double>::epsilon()
+                    * (std::abs(grown.min()[axis]) + m_width);
+            const double to = grown.max()[axis];
             // A short column is scanned from its start (cheaper than the search).
             int k = end - begin <= short_column
                 ? begin
                 : static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
 #if defined(__AVX512F__)
+            const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
+            const __m512d low_u = _mm512_set1_pd(grown.min()(u));
+            const __m512d high_u = _mm512_set1_pd(grown.max()(u));
+            const __m512d low_v = _mm512_set1_pd(grown.min()(v));
+            const __m512d high_v = _mm512_set1_pd(grown.max()(v));
             // Eight boxes at a time, in order, up to the first whose key is past `to`.
             for (; k < end; k += 8) {
                 const __mmask8 live

@@ -206,14 +206,35 @@ void NarrowPhase::choose_sweep_axis()
 void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int axis)
 {
     data.grid.build(axis);
-    // Per position in the grid, the corners' motion (see face_out_of_reach), then the body's
+    // Per position in the grid, the corners' motion (see Reach), then the body's
     // mean velocity and spread over its active faces.
     const std::size_t n = data.grid.items.size();
     data.motion.assign(n, BodyData::FaceMotion {});
+    data.geometry.resize(n);
     data.mean_velocity = Vec3::Zero();
     data.velocity_spread = 0.0;
-    if (body.velocities == nullptr || n == 0)
+    for (std::size_t k = 0; k < n; ++k) {
+        NarrowFace& g = data.geometry[k];
+        const int f = data.grid.at(k).index;
+        g.p0 = corner(body, f, 0);
+        g.p1 = corner(body, f, 1);
+        g.p2 = corner(body, f, 2);
+        const Vec3 normal = (g.p1 - g.p0).cross(g.p2 - g.p0);
+        const double length = normal.norm();
+        g.degenerate = !(length > 0.0);
+        g.unit = g.degenerate ? Vec3(Vec3::UnitY()) : Vec3(normal / length);
+        g.normal_speed = 0.0;
+        if (body.velocities != nullptr) {
+            g.normal_speed = -std::numeric_limits<double>::infinity();
+            for (int c = 0; c < 3; ++c)
+                g.normal_speed = std::max(g.normal_speed,
+                    g.unit.dot(body.velocities->row((*body.faces)(f, c)).transpose()));
+        }
+    }
+    if (body.velocities == nullptr || n == 0) {
+        summarize_columns(data);
         return;
+    }
     for (std::size_t k = 0; k < n; ++k) {
         BodyData::FaceMotion& motion = data.motion[k];
         std::array<Vec3, 3> v;
@@ -231,6 +252,30 @@ void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int ax
     for (const BodyData::FaceMotion& motion : data.motion)
         data.velocity_spread = std::max(
             data.velocity_spread, (motion.mean - data.mean_velocity).norm() + motion.spread);
+    summarize_columns(data);
+}
+
+void NarrowPhase::summarize_columns(BodyData& data)
+{
+    const int columns = data.grid.num_columns();
+    data.columns.resize(static_cast<std::size_t>(columns));
+    for (int c = 0; c < columns; ++c) {
+        BodyData::ColumnMotion& column = data.columns[static_cast<std::size_t>(c)];
+        const std::size_t begin = static_cast<std::size_t>(data.grid.column_begin(c));
+        const std::size_t end = static_cast<std::size_t>(data.grid.column_begin(c + 1));
+        column = BodyData::ColumnMotion {};
+        if (begin == end)
+            continue;
+        for (std::size_t k = begin; k < end; ++k) {
+            column.box.extend(data.grid.at(k).box);
+            column.motion.speed = std::max(column.motion.speed, data.motion[k].speed);
+            column.motion.mean += data.motion[k].mean;
+        }
+        column.motion.mean /= static_cast<double>(end - begin);
+        for (std::size_t k = begin; k < end; ++k)
+            column.motion.spread = std::max(column.motion.spread,
+                (data.motion[k].mean - column.motion.mean).norm() + data.motion[k].spread);
+    }
 }
 
 bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const
@@ -290,19 +335,19 @@ namespace {
     };
 
     /// Whether the node is in front of the (non-degenerate) triangle's plane by the reach or
-    /// more, or by more than it can close at its fastest approach to a corner.
-    bool plane_out_of_reach(
-        const NodeQuery& q, const NarrowPhaseBody& other, int f, const Vec3& p0, const Vec3& unit)
+    /// more, or by more than it can close at its fastest approach to a corner: -unit . (v_node -
+    /// v_corner) at most -unit . v_node + the face's normal_speed (with a relative slack of 1e-12
+    /// for the rounding of that sum: the rejection must be sure).
+    bool plane_out_of_reach(const NodeQuery& q, const NarrowFace& g)
     {
-        const double plane = unit.dot(q.x - p0);
+        const double plane = g.unit.dot(q.x - g.p0);
         if (plane >= q.reach)
             return true;
         if (plane >= q.near) {
-            double approach = 0.0;
-            for (int c = 0; c < 3; ++c)
-                approach = std::max(
-                    approach, -unit.dot(q.velocity - node_velocity(other, (*other.faces)(f, c))));
-            if (plane >= q.near + q.lookahead * approach)
+            const double along = g.unit.dot(q.velocity);
+            const double approach = std::max(0.0, g.normal_speed - along)
+                + 1e-12 * (std::abs(g.normal_speed) + std::abs(along));
+            if (plane >= (1.0 + 1e-12) * (q.near + q.lookahead * approach))
                 return true;
         }
         return false;
@@ -335,19 +380,18 @@ namespace {
     }
 
     /// Node `q` against triangle f of `other`: true, with `hit`, if the triangle takes it.
-    bool node_face_hit(const NodeQuery& q, const NarrowPhaseBody& other, int f, FaceHit& hit)
+    bool node_face_hit(
+        const NodeQuery& q, const NarrowPhaseBody& other, int f, const NarrowFace& g, FaceHit& hit)
     {
-        const Vec3 p0 = corner(other, f, 0);
-        const Vec3 p1 = corner(other, f, 1);
-        const Vec3 p2 = corner(other, f, 2);
-        const Vec3 n = (p1 - p0).cross(p2 - p0);
-        const double length = n.norm();
-        const Vec3 unit = length > 0.0 ? Vec3(n / length) : Vec3(Vec3::UnitY());
+        const Vec3& p0 = g.p0;
+        const Vec3& p1 = g.p1;
+        const Vec3& p2 = g.p2;
+        const Vec3& unit = g.unit;
         // In front of the triangle's plane by the reach or more, or by more than the node can
         // close at its fastest approach to a corner (the closest point's velocity lies between
         // the corners'): so is its closest point (which is at least as far), and the node is no
         // candidate.
-        if (length > 0.0 && plane_out_of_reach(q, other, f, p0, unit))
+        if (!g.degenerate && plane_out_of_reach(q, g))
             return false;
         const PointTriangleClosest closest = point_triangle_closest(q.x, p0, p1, p2);
         const double distance = std::sqrt(closest.squared_distance);
@@ -381,25 +425,55 @@ namespace {
     /// bound has a relative slack of 1e-9, plus `slack` (m) against the rounding of the means.
     struct Reach {
         double hold = 0.0; ///< max(near, sqrt(3) margin)
+        double most = 0.0; ///< the node's reach, and the bound over all the body's faces
         double own_speed = 0.0;
         double slack = 0.0;
     };
 
-    bool face_out_of_reach(const NodeQuery& q, const Reach& r, const Box3& box,
-        const Vec3& mean_velocity, double speed, double spread)
+    /// The farthest from a node that a face (or every face of a set) whose corners move as
+    /// (mean velocity, fastest corner's speed, spread about the mean) can take it: the smaller
+    /// of the two bounds above.
+    double relative_reach(
+        const NodeQuery& q, const Reach& r, const Vec3& mean_velocity, double spread)
+    {
+        return (1.0 + 1e-9)
+            * (r.hold + q.lookahead * ((q.velocity - mean_velocity).norm() + spread))
+            + r.slack;
+    }
+    double motion_reach(
+        const NodeQuery& q, const Reach& r, const Vec3& mean_velocity, double speed, double spread)
+    {
+        return std::min((1.0 + 1e-9) * (r.hold + q.lookahead * (r.own_speed + speed)),
+            relative_reach(q, r, mean_velocity, spread));
+    }
+
+    /// The squared distance from the node to a box, or -1 if it is further than `reach` on an
+    /// axis.
+    double squared_gap(const Vec3& x, const Box3& box, double reach)
     {
         double squared = 0.0;
         for (Index a = 0; a < 3; ++a) {
-            const double gap = std::max({ box.min()[a] - q.x[a], q.x[a] - box.max()[a], 0.0 });
+            const double gap = std::max({ box.min()[a] - x[a], x[a] - box.max()[a], 0.0 });
+            if (gap > reach)
+                return -1.0;
             squared += gap * gap;
         }
-        const double reach = (1.0 + 1e-9) * (r.hold + q.lookahead * (r.own_speed + speed));
-        if (squared > reach * reach)
-            return true;
-        const double relative
-            = (1.0 + 1e-9) * (r.hold + q.lookahead * ((q.velocity - mean_velocity).norm() + spread))
-            + r.slack;
-        return squared > relative * relative;
+        return squared;
+    }
+
+    /// Whether a face (or a set of faces, by its box and motion) is out of the node's reach:
+    /// further than its motion_reach, or than r.most on an axis (the grid's own test, with
+    /// which a node behind a face within the margin on each axis is kept). `beaten`: the squared
+    /// distance of the best hit so far (infinite: none); a face whose box is further loses to it
+    /// (its distance is at least that of its box) and is skipped too. `grow` is returned: how
+    /// far on an axis the face may be from the node.
+    bool out_of_reach(const NodeQuery& q, const Reach& r, const Box3& box,
+        const Vec3& mean_velocity, double speed, double spread, double beaten, double& grow)
+    {
+        const double reach = motion_reach(q, r, mean_velocity, speed, spread);
+        grow = std::min(r.most, reach);
+        const double squared = squared_gap(q.x, box, grow);
+        return squared < 0.0 || squared > (1.0 + 1e-9) * beaten || squared > reach * reach;
     }
 
     /// Whether a hit at `signed_distance` on triangle f of body bf loses to `best`: further
@@ -516,27 +590,38 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.same_body = bf == bn;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         // Only the faces that the node's velocity relative to the body's active faces (their
-        // mean velocity, plus the spread about it) can reach: see face_out_of_reach.
+        // mean velocity, plus the spread about it) can reach: see Reach.
         Reach r;
         r.hold = std::max(query.near, std::sqrt(3.0) * margin);
         r.own_speed = query.velocity.norm();
         r.slack
             = 1e-9 * lookahead * (r.own_speed + faces.mean_velocity.norm() + faces.velocity_spread);
-        const double relative = (1.0 + 1e-9)
-                * (r.hold
-                    + lookahead
-                        * ((query.velocity - faces.mean_velocity).norm() + faces.velocity_spread))
-            + r.slack;
-        faces.grid.overlapping(item.box, std::min(query.reach, relative), [&](int f, int k) {
+        r.most = std::min(
+            query.reach, relative_reach(query, r, faces.mean_velocity, faces.velocity_spread));
+        // Each column grows by the reach of its own faces' motion (a column's bounds hold for
+        // each of its faces), and is skipped when it is out of that reach.
+        double reach = 0.0;
+        const auto column_grow = [&](int c) {
+            const BodyData::ColumnMotion& column = faces.columns[static_cast<std::size_t>(c)];
+            const double beaten
+                = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
+            return out_of_reach(query, r, column.box, column.motion.mean, column.motion.speed,
+                       column.motion.spread, beaten, reach)
+                ? -1.0
+                : reach;
+        };
+        faces.grid.overlapping(item.box, r.most, column_grow, [&](int f, int k) {
             const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
-            if (face_out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box,
-                    motion.mean, motion.speed, motion.spread))
+            const double beaten
+                = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
+            if (out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box, motion.mean,
+                    motion.speed, motion.spread, beaten, reach))
                 return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;
             ++scratch.node_tests;
             FaceHit hit;
-            if (!node_face_hit(query, other, f, hit))
+            if (!node_face_hit(query, other, f, faces.geometry[static_cast<std::size_t>(k)], hit))
                 return;
             if (found && loses_to(best, hit.distance, bf, f))
                 return;

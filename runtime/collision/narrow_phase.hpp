@@ -23,7 +23,11 @@
 //   3. every active triangle (and node) looks up the boxes that overlap its own in the other
 //      side's neighbouring columns (a scan from the column's start, or past a binary search in
 //      a long column; with AVX-512, eight boxes per comparison), so each candidate is found and
-//      tested once.
+//      tested once. A node's search reaches, in each column, only as far as the motion of that
+//      column's faces lets them take it (a column holds faces close together, whose velocities
+//      differ less than the whole body's: on creatures_collide this visited 4.4x fewer boxes),
+//      skips the faces further than the nearest hit so far, and reads each face's corners and
+//      normal computed once per run.
 // The triangle pairs found are a superset of the pair-by-pair ones (those lie in the primitives'
 // regions too), so none of those is lost. Parallel (TBB) over triangles and nodes; the results
 // are sorted by a total order, so they do not depend on the thread count. Buffers are members,
@@ -82,6 +86,15 @@ struct NodeCandidate {
     Vec3 normal = Vec3::UnitY(); ///< the triangle's unit outward normal
 };
 
+/// An active face as the nodes' search reads it, once per run: its corners, unit normal (UnitY
+/// if degenerate) and the fastest of its corners' velocities along that normal.
+struct NarrowFace {
+    Vec3 p0 = Vec3::Zero(), p1 = Vec3::Zero(), p2 = Vec3::Zero();
+    Vec3 unit = Vec3::UnitY();
+    bool degenerate = true;
+    double normal_speed = 0.0; ///< max over the corners of unit . v (0 at rest)
+};
+
 /// (body_a, face_a, body_b, face_b) with (body_a, face_a) < (body_b, face_b).
 using FacePair = std::array<int, 4>;
 
@@ -131,6 +144,17 @@ private:
         };
         /// Per position in `grid`.
         std::vector<FaceMotion> motion;
+        /// Per position in `grid`.
+        std::vector<NarrowFace> geometry;
+        /// Per column of `grid`: the box of its faces and their motion (FaceMotion of all its
+        /// faces together: the fastest corner, the mean of the faces' means, and how far a
+        /// corner's velocity is from it at most), so that a node's search grows by the reach of
+        /// each column's own motion rather than the whole body's.
+        struct ColumnMotion {
+            Box3 box;
+            FaceMotion motion;
+        };
+        std::vector<ColumnMotion> columns;
         /// The mean of the active faces' mean velocities, and the most a velocity of a point of
         /// an active face differs from it (via its face's mean: |mean_k - this| + spread_k).
         Vec3 mean_velocity = Vec3::Zero();
@@ -161,6 +185,8 @@ private:
     void choose_sweep_axis();
     /// Files a body's active triangles in its grid along `axis`, with their corners' motion.
     static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
+    /// BodyData::columns, from its grid and its faces' motion.
+    static void summarize_columns(BodyData& data);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
