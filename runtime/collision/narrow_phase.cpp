@@ -461,19 +461,34 @@ namespace {
         return squared;
     }
 
-    /// Whether a face (or a set of faces, by its box and motion) is out of the node's reach:
-    /// further than its motion_reach, or than r.most on an axis (the grid's own test, with
-    /// which a node behind a face within the margin on each axis is kept). `beaten`: the squared
-    /// distance of the best hit so far (infinite: none); a face whose box is further loses to it
-    /// (its distance is at least that of its box) and is skipped too. `grow` is returned: how
-    /// far on an axis the face may be from the node.
-    bool out_of_reach(const NodeQuery& q, const Reach& r, const Box3& box,
-        const Vec3& mean_velocity, double speed, double spread, double beaten, double& grow)
+    /// Whether a face is out of the node's reach: further than its motion_reach, or than
+    /// r.most on an axis (the grid's own test, with which a node behind a face within the
+    /// margin on each axis is kept). `beaten`: the squared distance of the best hit so far
+    /// (infinite: none); a face whose box is further loses to it (its distance is at least that
+    /// of its box) and is skipped too. The cheap tests first: one per face visited.
+    bool face_out_of_reach(const NodeQuery& q, const Reach& r, const Box3& box,
+        const Vec3& mean_velocity, double speed, double spread, double beaten)
+    {
+        const double squared = squared_gap(q.x, box, r.most);
+        if (squared < 0.0 || squared > (1.0 + 1e-9) * beaten)
+            return true;
+        const double own = (1.0 + 1e-9) * (r.hold + q.lookahead * (r.own_speed + speed));
+        if (squared > own * own)
+            return true;
+        const double relative = relative_reach(q, r, mean_velocity, spread);
+        return squared > relative * relative;
+    }
+
+    /// How far on an axis a face of a set (a grid column: its box and motion) may be from the
+    /// node, or -1 if the whole set is out of reach (as face_out_of_reach).
+    double set_reach(const NodeQuery& q, const Reach& r, const Box3& box, const Vec3& mean_velocity,
+        double speed, double spread, double beaten)
     {
         const double reach = motion_reach(q, r, mean_velocity, speed, spread);
-        grow = std::min(r.most, reach);
+        const double grow = std::min(r.most, reach);
         const double squared = squared_gap(q.x, box, grow);
-        return squared < 0.0 || squared > (1.0 + 1e-9) * beaten || squared > reach * reach;
+        return squared < 0.0 || squared > (1.0 + 1e-9) * beaten || squared > reach * reach ? -1.0
+                                                                                           : grow;
     }
 
     /// Whether a hit at `signed_distance` on triangle f of body bf loses to `best`: further
@@ -600,22 +615,19 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
             query.reach, relative_reach(query, r, faces.mean_velocity, faces.velocity_spread));
         // Each column grows by the reach of its own faces' motion (a column's bounds hold for
         // each of its faces), and is skipped when it is out of that reach.
-        double reach = 0.0;
         const auto column_grow = [&](int c) {
             const BodyData::ColumnMotion& column = faces.columns[static_cast<std::size_t>(c)];
             const double beaten
                 = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
-            return out_of_reach(query, r, column.box, column.motion.mean, column.motion.speed,
-                       column.motion.spread, beaten, reach)
-                ? -1.0
-                : reach;
+            return set_reach(query, r, column.box, column.motion.mean, column.motion.speed,
+                column.motion.spread, beaten);
         };
         faces.grid.overlapping(item.box, r.most, column_grow, [&](int f, int k) {
             const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
             const double beaten
                 = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
-            if (out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box, motion.mean,
-                    motion.speed, motion.spread, beaten, reach))
+            if (face_out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box,
+                    motion.mean, motion.speed, motion.spread, beaten))
                 return;
             if (bf == bn && own_face_excluded(other, bn, item.index, f))
                 return;
