@@ -80,7 +80,8 @@ struct ContactScratch {
     std::vector<char> member; ///< per contact, whether it is in the working set
     /// During the sweeps over one working set: its positions, and the columns of D over it of
     /// the members whose force has changed (ready), contiguous for the sweeps' updates.
-    MatX3 working_positions;
+    /// Column-major: a force's change moves them by three contiguous updates (vectorized).
+    Eigen::Matrix<double, Eigen::Dynamic, 3> working_positions;
     MatX working_columns;
     std::vector<char> ready;
 };

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/pd/solver.hpp"
@@ -235,6 +238,7 @@ void ContactStage::begin_step(
     m_column_of.assign(static_cast<std::size_t>(m), -1);
     m_rows.clear();
     m_cols.clear();
+    m_column_sides.clear();
     // Warm start: the last step's forces; then forget them, so that a contact that drops out
     // and comes back later does not start from a stale force (end_step writes the current ones).
     for (Index a = 0; a < m; ++a) {
@@ -332,12 +336,12 @@ Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale)
     return column;
 }
 
-double ContactStage::side_apply(const Side& side, const Eigen::Ref<const VecX>& z) const
+double ContactStage::side_apply(const Side& side, const double* z) const
 {
     double sum = 0.0;
     for (int i = side.dir_first; i < side.dir_first + side.dir_count; ++i)
         sum += m_dir_value[static_cast<std::size_t>(i)]
-            * z(m_dir_index[static_cast<std::size_t>(i)]);
+            * z[m_dir_index[static_cast<std::size_t>(i)]];
     return sum;
 }
 
@@ -354,13 +358,23 @@ void ContactStage::solve(bool last)
     if (m == 0)
         return;
     Timer timer;
-    for (Index a = 0; a < m; ++a) {
+    // Each contact's free position on its own (in parallel for many contacts).
+    const auto free_position = [&](Index a) {
         const Record& record = m_records[static_cast<std::size_t>(a)];
         Vec3 x = Vec3::Zero();
         for (int s = 0; s < record.num_sides; ++s)
             x += side_position(record.sides[static_cast<std::size_t>(s)]);
         m_free.row(a) = x.transpose();
-    }
+    };
+    if (m > 256)
+        tbb::parallel_for(
+            tbb::blocked_range<Index>(0, m, 64), [&](const tbb::blocked_range<Index>& range) {
+                for (Index a = range.begin(); a != range.end(); ++a)
+                    free_position(a);
+            });
+    else
+        for (Index a = 0; a < m; ++a)
+            free_position(a);
     // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
     // iterate they push still moves; the last iteration's solve is the one that must hold).
     ContactSettings settings = m_settings;

@@ -167,6 +167,12 @@ private:
         std::vector<char> pool_ready; ///< per pool column, computed this step
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
+        /// sum_responses' scratch: its pushing sides' responses and forces.
+        struct Push {
+            const double* response = nullptr;
+            Eigen::RowVector3d force = Eigen::RowVector3d::Zero();
+        };
+        std::vector<Push> pushes;
         /// The rows of the response space its sides' directions read, increasing (empty: all;
         /// a full-space body's directions read only the contacts' nodes).
         std::vector<int> read_rows;
@@ -192,7 +198,17 @@ private:
     /// Computed when first asked for in the step.
     Eigen::Ref<const VecX> response(const Side& side, double& scale);
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
-    double side_apply(const Side& side, const Eigen::Ref<const VecX>& response) const;
+    double side_apply(const Side& side, const double* response) const;
+    /// A column's contact's responses, one per side (kept for the step: a response never moves
+    /// once computed), so that the rows covered later read them in parallel.
+    struct ColumnSides {
+        int count = 0;
+        std::array<int, 2> body {};
+        std::array<const double*, 2> response {};
+        std::array<double, 2> scale {};
+    };
+    /// W between contact c and a column's contact.
+    double column_entry(Index c, const ColumnSides& column) const;
     Vec3 side_position(const Side& side) const;
     /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
     double coupling_between(Index c, Index d);
@@ -222,6 +238,7 @@ private:
     MatX m_columns;
     std::vector<int> m_row_of, m_column_of; ///< per contact, its row / column (-1: none yet)
     std::vector<Index> m_rows, m_cols; ///< the contacts by row / column
+    std::vector<ColumnSides> m_column_sides; ///< per column
     MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3
     ContactScratch m_scratch;
     ContactSettings m_settings;

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "runtime/pd/contact_stage.hpp"
 #include "runtime/pd/solver.hpp"
 
@@ -22,7 +25,7 @@ double ContactStage::coupling_between(Index c, Index d)
                 continue;
             double scale = 1.0;
             const auto z = response(side_d, scale);
-            sum += scale * side_apply(side_c, z);
+            sum += scale * side_apply(side_c, z.data());
         }
     }
     return sum;
@@ -42,7 +45,41 @@ namespace {
 
 } // namespace
 
-// A new row: W between c and each contact with a column.
+namespace {
+
+    /// f(i) for i in [0, n), in parallel when n is large enough to pay for it: each i writes
+    /// only its own results, so they do not depend on the thread count.
+    template <class F> void for_each_index(Index n, const F& f, Index grain = 64)
+    {
+        if (n <= grain) {
+            for (Index i = 0; i < n; ++i)
+                f(i);
+            return;
+        }
+        tbb::parallel_for(
+            tbb::blocked_range<Index>(0, n, grain), [&](const tbb::blocked_range<Index>& range) {
+                for (Index i = range.begin(); i != range.end(); ++i)
+                    f(i);
+            });
+    }
+
+} // namespace
+
+double ContactStage::column_entry(Index c, const ColumnSides& column) const
+{
+    const Record& record_c = m_records[static_cast<std::size_t>(c)];
+    double sum = 0.0;
+    for (int sd = 0; sd < column.count; ++sd)
+        for (int sc = 0; sc < record_c.num_sides; ++sc) {
+            const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
+            if (side_c.body == column.body[static_cast<std::size_t>(sd)])
+                sum += column.scale[static_cast<std::size_t>(sd)]
+                    * side_apply(side_c, column.response[static_cast<std::size_t>(sd)]);
+        }
+    return sum;
+}
+
+// A new row: W between c and each contact with a column (their responses kept by column()).
 int ContactStage::cover(Index c)
 {
     int& row = m_row_of[static_cast<std::size_t>(c)];
@@ -51,8 +88,9 @@ int ContactStage::cover(Index c)
     const Index rows = static_cast<Index>(m_rows.size());
     const Index cols = static_cast<Index>(m_cols.size());
     reserve_block(m_columns, rows, cols, std::max<Index>(rows + 1, 64), std::max<Index>(cols, 16));
-    for (Index p = 0; p < cols; ++p)
-        m_columns(rows, p) = coupling_between(c, m_cols[static_cast<std::size_t>(p)]);
+    for_each_index(cols, [&](Index p) {
+        m_columns(rows, p) = column_entry(c, m_column_sides[static_cast<std::size_t>(p)]);
+    });
     m_diagonal(c) = coupling_between(c, c);
     m_rows.push_back(c);
     row = static_cast<int>(rows);
@@ -68,24 +106,23 @@ const double* ContactStage::column(Index d)
         const Index cols = static_cast<Index>(m_cols.size());
         reserve_block(
             m_columns, rows, cols, std::max<Index>(rows, 64), std::max<Index>(cols + 1, 16));
-        auto values = m_columns.col(cols).head(rows);
-        values.setZero();
+        // d's responses (computed here if they are not yet: not in parallel), kept for the rows
+        // covered later.
+        ColumnSides sides;
         const Record& record_d = m_records[static_cast<std::size_t>(d)];
+        sides.count = record_d.num_sides;
         for (int sd = 0; sd < record_d.num_sides; ++sd) {
             const Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
             double scale = 1.0;
-            const auto z = response(side_d, scale);
-            for (Index r = 0; r < rows; ++r) {
-                const Record& record_c
-                    = m_records[static_cast<std::size_t>(m_rows[static_cast<std::size_t>(r)])];
-                for (int sc = 0; sc < record_c.num_sides; ++sc) {
-                    const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
-                    if (side_c.body == side_d.body)
-                        values(r) += scale * side_apply(side_c, z);
-                }
-            }
+            sides.response[static_cast<std::size_t>(sd)] = response(side_d, scale).data();
+            sides.scale[static_cast<std::size_t>(sd)] = scale;
+            sides.body[static_cast<std::size_t>(sd)] = side_d.body;
         }
+        for_each_index(rows, [&](Index r) {
+            m_columns(r, cols) = column_entry(m_rows[static_cast<std::size_t>(r)], sides);
+        });
         m_cols.push_back(d);
+        m_column_sides.push_back(sides);
         col = static_cast<int>(cols);
     }
     return m_columns.col(col).data();
@@ -139,24 +176,41 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
             for (const int r : data.read_rows)
                 data.displacement.row(r).setZero();
     }
+    // The pushing sides' responses (computed here if they are not yet: not in parallel) and
+    // forces, then each body's sum over its own, in parallel over the bodies (in contact order
+    // within a body, whatever the thread count).
     const Index m = static_cast<Index>(m_records.size());
+    for (BodyData& data : m_data)
+        data.pushes.clear();
     for (Index a = 0; a < m; ++a) {
         if (!(forces.row(a).squaredNorm() > 0.0))
             continue;
         const Record& record = m_records[static_cast<std::size_t>(a)];
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
-            BodyData& data = m_data[static_cast<std::size_t>(side.body)];
             double scale = 1.0;
-            const auto z = response(side, scale);
-            const Eigen::RowVector3d f = scale * forces.row(a);
-            if (all_rows || data.read_rows.empty())
-                data.displacement.noalias() += z * f;
-            else
-                for (const int r : data.read_rows)
-                    data.displacement.row(r) += z(r) * f;
+            const double* z = response(side, scale).data();
+            m_data[static_cast<std::size_t>(side.body)].pushes.push_back(
+                { z, scale * forces.row(a) });
         }
     }
+    for_each_index(
+        static_cast<Index>(m_data.size()),
+        [&](Index b) {
+            BodyData& data = m_data[static_cast<std::size_t>(b)];
+            if (m_solvers[static_cast<std::size_t>(b)] == nullptr)
+                return;
+            const Index size = data.displacement.rows();
+            for (const BodyData::Push& push : data.pushes) {
+                const Eigen::Map<const VecX> z(push.response, size);
+                if (all_rows || data.read_rows.empty())
+                    data.displacement.noalias() += z * push.force;
+                else
+                    for (const int r : data.read_rows)
+                        data.displacement.row(r) += z(r) * push.force;
+            }
+        },
+        1);
 }
 
 // x_c = x_free_c + sum over c's sides of J_cb (sum_d z_d f_d^T): the same as W f, without W.
@@ -166,9 +220,9 @@ void ContactStage::displace(const Eigen::Ref<const MatX3>& free,
 {
     sum_responses(forces, false);
     const Index m = static_cast<Index>(m_records.size());
-    for (Index c = 0; c < m; ++c) {
+    for_each_index(m, [&](Index c) {
         if (keep != nullptr && (*keep)[static_cast<std::size_t>(c)])
-            continue;
+            return;
         const Record& record = m_records[static_cast<std::size_t>(c)];
         Eigen::RowVector3d x = free.row(c);
         for (int s = 0; s < record.num_sides; ++s) {
@@ -179,7 +233,7 @@ void ContactStage::displace(const Eigen::Ref<const MatX3>& free,
                     * displacement.row(m_dir_index[static_cast<std::size_t>(i)]);
         }
         positions.row(c) = x;
-    }
+    });
 }
 
 } // namespace mat
