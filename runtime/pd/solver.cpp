@@ -202,7 +202,13 @@ PdSolver::PdSolver(const Model& model, const SolverOptions& options,
     check_options(options);
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
-    m_options.contact.tolerance = options.contact.tolerance * diagonal;
+    // With time.tolerance the contact solve stops well below it (a tenth), else its own
+    // stopping point is a floor the iterations cannot converge past (docs/method.md, "Iterations
+    // to a tolerance").
+    const double contact_tolerance = options.tolerance > 0.0
+        ? std::min(options.contact.tolerance, 0.1 * options.tolerance)
+        : options.contact.tolerance;
+    m_options.contact.tolerance = contact_tolerance * diagonal;
     m_diagonal = diagonal;
     if (options.device == Device::cuda) {
         if (m_global->reduced_coordinates() == nullptr || m_local->num_tets() != model.num_tets())

@@ -106,7 +106,8 @@ struct SolverOptions {
     /// sum_i m_i), relative to the rest bounding-box diagonal, with m_j the node masses in full
     /// space (the RMS node distance) and the diagonal of B^T M B on the reduced coordinates; it
     /// is estimated from the last changes of u, c rho / (1 - rho) (PdSolver::measure_change).
-    /// The CPU path only.
+    /// The contact solve then stops at a tenth of it (if below contact.tolerance). The CPU path
+    /// only.
     double tolerance = 0.0;
     /// Which bodies keep angular momentum (AngularMomentum); the CPU path only.
     AngularMomentum angular_momentum = AngularMomentum::free;
