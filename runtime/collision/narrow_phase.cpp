@@ -430,9 +430,8 @@ namespace {
         double slack = 0.0;
     };
 
-    /// The farthest from a node that a face (or every face of a set) whose corners move as
-    /// (mean velocity, fastest corner's speed, spread about the mean) can take it: the smaller
-    /// of the two bounds above.
+    /// The second bound above alone: through the node's velocity relative to the faces' mean
+    /// velocity, plus their spread about it.
     double relative_reach(
         const NodeQuery& q, const Reach& r, const Vec3& mean_velocity, double spread)
     {
@@ -440,6 +439,9 @@ namespace {
             * (r.hold + q.lookahead * ((q.velocity - mean_velocity).norm() + spread))
             + r.slack;
     }
+    /// The farthest from a node that a face (or every face of a set) whose corners move as
+    /// (mean velocity, fastest corner's speed, spread about the mean) can take it: the smaller
+    /// of the two bounds above.
     double motion_reach(
         const NodeQuery& q, const Reach& r, const Vec3& mean_velocity, double speed, double spread)
     {
