@@ -3,9 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "common/error.hpp"
 #include "common/timer.hpp"
 #include "runtime/pd/solver.hpp"
@@ -358,23 +355,7 @@ void ContactStage::solve(bool last)
     if (m == 0)
         return;
     Timer timer;
-    // Each contact's free position on its own (in parallel for many contacts).
-    const auto free_position = [&](Index a) {
-        const Record& record = m_records[static_cast<std::size_t>(a)];
-        Vec3 x = Vec3::Zero();
-        for (int s = 0; s < record.num_sides; ++s)
-            x += side_position(record.sides[static_cast<std::size_t>(s)]);
-        m_free.row(a) = x.transpose();
-    };
-    if (m > 256)
-        tbb::parallel_for(
-            tbb::blocked_range<Index>(0, m, 64), [&](const tbb::blocked_range<Index>& range) {
-                for (Index a = range.begin(); a != range.end(); ++a)
-                    free_position(a);
-            });
-    else
-        for (Index a = 0; a < m; ++a)
-            free_position(a);
+    compute_free_positions();
     // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
     // iterate they push still moves; the last iteration's solve is the one that must hold).
     ContactSettings settings = m_settings;

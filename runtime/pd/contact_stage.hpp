@@ -210,6 +210,8 @@ private:
     /// W between contact c and a column's contact.
     double column_entry(Index c, const ColumnSides& column) const;
     Vec3 side_position(const Side& side) const;
+    /// m_free: each contact's point in its bodies' kept solutions (in parallel for many).
+    void compute_free_positions();
     /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
     double coupling_between(Index c, Index d);
     // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).

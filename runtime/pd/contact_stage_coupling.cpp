@@ -65,6 +65,17 @@ namespace {
 
 } // namespace
 
+void ContactStage::compute_free_positions()
+{
+    for_each_index(static_cast<Index>(m_records.size()), [&](Index a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        Vec3 x = Vec3::Zero();
+        for (int s = 0; s < record.num_sides; ++s)
+            x += side_position(record.sides[static_cast<std::size_t>(s)]);
+        m_free.row(a) = x.transpose();
+    });
+}
+
 double ContactStage::column_entry(Index c, const ColumnSides& column) const
 {
     const Record& record_c = m_records[static_cast<std::size_t>(c)];
