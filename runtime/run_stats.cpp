@@ -48,9 +48,11 @@ namespace {
         into.primitive_pairs = std::max(into.primitive_pairs, step.primitive_pairs);
         into.triangle_tests = std::max(into.triangle_tests, step.triangle_tests);
         into.node_tests = std::max(into.node_tests, step.node_tests);
+        into.edge_tests = std::max(into.edge_tests, step.edge_tests);
         into.intersecting_triangles
             = std::max(into.intersecting_triangles, step.intersecting_triangles);
         into.contacts = std::max(into.contacts, step.contacts);
+        into.edge_contacts = std::max(into.edge_contacts, step.edge_contacts);
         into.max_penetration = std::max(into.max_penetration, step.max_penetration);
         into.bounds_seconds += step.bounds_seconds;
         into.hash_seconds += step.hash_seconds;
@@ -75,7 +77,8 @@ namespace {
             { "object_pairs", r.object_pairs }, { "hashed_bodies", r.hashed_bodies },
             { "candidates", r.primitive_candidates }, { "primitive_pairs", r.primitive_pairs },
             { "triangle_tests", r.triangle_tests }, { "node_tests", r.node_tests },
-            { "intersecting_triangles", r.intersecting_triangles }, { "contacts", r.contacts },
+            { "edge_tests", r.edge_tests }, { "intersecting_triangles", r.intersecting_triangles },
+            { "contacts", r.contacts }, { "edge_contacts", r.edge_contacts },
             { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
     }
 

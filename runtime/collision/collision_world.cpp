@@ -43,6 +43,7 @@ CollisionWorld::CollisionWorld(const CollisionSettings& settings)
     if (!(settings.margin >= 0.0) || !(settings.friction >= 0.0))
         throw_error("collision: margin {} and friction {} must be >= 0", settings.margin,
             settings.friction);
+    m_narrow.set_edge_contacts(settings.edges);
 }
 
 void CollisionWorld::add_body(std::shared_ptr<const BodyModel> model)
@@ -407,6 +408,7 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
     m_intersecting = m_narrow.intersecting();
     m_report.triangle_tests = m_narrow.triangle_tests();
     m_report.node_tests = m_narrow.node_tests();
+    m_report.edge_tests = m_narrow.edge_tests();
     m_report.intersecting_triangles = static_cast<int>(m_intersecting.size());
 }
 
@@ -415,30 +417,50 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
     // One candidate per surface vertex (the nearest triangle), sorted by (body, vertex): the
     // vertex (its embedding's nodes and weights) against the triangle's closest point.
     for (const NodeCandidate& hit : m_narrow.candidates()) {
-        const Body& self = m_bodies[static_cast<std::size_t>(hit.body)];
         const Body& other = m_bodies[static_cast<std::size_t>(hit.other_body)];
         const Eigen::Vector3i face = other.model->surface().faces().row(hit.face).transpose();
-        const Vec3& beta = hit.barycentric;
-        for (int c = 0; c < 4; ++c)
-            if (self.model->surface().weights()(hit.node, c) != 0.0)
-                m_contacts.terms.push_back(
-                    ContactTerm { hit.body, self.model->surface().nodes()(hit.node, c),
-                        self.model->surface().weights()(hit.node, c) });
-        const MatX4i& nodes = other.model->surface().nodes();
-        const MatX& weights = other.model->surface().weights();
+        add_vertex_terms(hit.body, hit.node, 1.0);
         for (int k = 0; k < 3; ++k)
-            for (int c = 0; c < 4; ++c)
-                if (beta(k) * weights(face(k), c) != 0.0)
-                    m_contacts.terms.push_back(ContactTerm {
-                        hit.other_body, nodes(face(k), c), -beta(k) * weights(face(k), c) });
-        PlaneCollider plane;
-        plane.point = Vec3::Zero();
-        plane.normal = hit.normal;
-        plane.friction = m_settings.friction;
-        m_contacts.close(plane, hit.node, hit.body == hit.other_body);
+            add_vertex_terms(hit.other_body, face(k), -hit.barycentric(k));
+        close_contact(hit.normal, hit.node, hit.body == hit.other_body);
         m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
-        ++m_report.contacts;
     }
+    // One per surface edge that has one (the nearest edge crossing it), sorted by (body, edge):
+    // the edge's closest point against the other edge's, keyed after the body's vertices.
+    for (const EdgeCandidate& hit : m_narrow.edge_candidates()) {
+        const std::array<int, 2>& ends
+            = m_narrow.edges(hit.body).vertices[static_cast<std::size_t>(hit.edge)];
+        const std::array<int, 2>& other_ends
+            = m_narrow.edges(hit.other_body).vertices[static_cast<std::size_t>(hit.other_edge)];
+        add_vertex_terms(hit.body, ends[0], 1.0 - hit.s);
+        add_vertex_terms(hit.body, ends[1], hit.s);
+        add_vertex_terms(hit.other_body, other_ends[0], -(1.0 - hit.t));
+        add_vertex_terms(hit.other_body, other_ends[1], -hit.t);
+        const Body& self = m_bodies[static_cast<std::size_t>(hit.body)];
+        const int key = static_cast<int>(self.model->surface().num_vertices()) + hit.edge;
+        close_contact(hit.normal, key, hit.body == hit.other_body);
+        ++m_report.edge_contacts;
+    }
+}
+
+void CollisionWorld::add_vertex_terms(int body, int vertex, double weight)
+{
+    const SurfaceEmbedding& surface = m_bodies[static_cast<std::size_t>(body)].model->surface();
+    for (int c = 0; c < 4; ++c) {
+        const double w = weight * surface.weights()(vertex, c);
+        if (w != 0.0)
+            m_contacts.terms.push_back(ContactTerm { body, surface.nodes()(vertex, c), w });
+    }
+}
+
+void CollisionWorld::close_contact(const Vec3& normal, int key, bool is_self)
+{
+    PlaneCollider plane;
+    plane.point = Vec3::Zero();
+    plane.normal = normal;
+    plane.friction = m_settings.friction;
+    m_contacts.close(plane, key, is_self);
+    ++m_report.contacts;
 }
 
 } // namespace mat

@@ -65,6 +65,8 @@ struct CollisionSettings {
     RadiusUpdate bounds = RadiusUpdate::bound;
     double margin = 0.01; ///< contact candidate distance, relative to the largest body diagonal
     double friction = 0.3; ///< Coulomb coefficient between bodies
+    /// Edge-edge contacts besides the vertex-face ones (docs/method.md, "Edge contacts").
+    bool edges = false;
 };
 
 /// What the last detect() found and how long each phase took.
@@ -76,8 +78,10 @@ struct CollisionReport {
     int primitive_pairs = 0; ///< pairs that pass the exact primitive test
     long triangle_tests = 0; ///< distinct triangle pairs tested (their boxes overlap)
     long node_tests = 0; ///< distinct node-triangle pairs tested
+    long edge_tests = 0; ///< distinct edge-edge pairs tested
     int intersecting_triangles = 0; ///< distinct triangle pairs that intersect
-    int contacts = 0; ///< node contacts handed to the solvers
+    int contacts = 0; ///< contacts handed to the solvers (vertex-face and edge-edge)
+    int edge_contacts = 0; ///< of which edge-edge
     double max_penetration = 0.0; ///< deepest node behind the other surface (m)
     double bounds_seconds = 0.0; ///< bounds update, surfaces and boxes in world coordinates
     double hash_seconds = 0.0; ///< broad phase
@@ -201,6 +205,11 @@ private:
     void test_primitive_pairs(const std::vector<CollisionBodyState>& states);
     void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
     void respond(const std::vector<CollisionBodyState>& states);
+    /// Appends a surface vertex's terms (its embedding's nodes) times `weight` to the contact
+    /// being built.
+    void add_vertex_terms(int body, int vertex, double weight);
+    /// Closes the contact being built, against the plane of `normal` through 0.
+    void close_contact(const Vec3& normal, int key, bool is_self);
     /// Body b's faces near each vertex at rest, within `radius` (self collision skips them).
     void find_rest_neighbours(std::size_t b, double radius);
 

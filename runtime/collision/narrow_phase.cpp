@@ -63,7 +63,8 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         const Index num_primitives = body.face_indptr->size() - 1;
         if (static_cast<Index>(data.stamp.size()) == num_primitives
             && static_cast<Index>(data.face_stamp.size()) == body.faces->rows()
-            && data.node_primitive.size() == body.nodes->rows())
+            && data.node_primitive.size() == body.nodes->rows()
+            && (!m_edge_contacts || !body.nodes_are_vertices || !data.edges.vertices.empty()))
             continue;
         // First run for this body: sizes and the inverse maps (face -> primitives, node ->
         // primitive).
@@ -90,6 +91,8 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         data.nodes.reserve(static_cast<std::size_t>(body.node_list->size()));
         data.partners.reserve(bodies.size());
         data.active.reserve(static_cast<std::size_t>(num_primitives));
+        if (m_edge_contacts && body.nodes_are_vertices)
+            data.edges = build_surface_edges(*body.faces);
     }
 }
 
@@ -119,6 +122,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     const int axis = m_axis;
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
         file_faces(body, data, axis);
+        collect_active_edges(body, data);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -524,6 +528,7 @@ void NarrowPhase::clear_scratch()
         scratch.intersecting.clear();
         scratch.triangle_tests = 0;
         scratch.node_tests = 0;
+        scratch.edge_tests = 0;
     }
 }
 
@@ -659,11 +664,13 @@ void NarrowPhase::merge_results()
     m_intersecting.clear();
     m_triangle_tests = 0;
     m_node_tests = 0;
+    m_edge_tests = 0;
     for (const Scratch& scratch : m_scratch) {
         m_intersecting.insert(
             m_intersecting.end(), scratch.intersecting.begin(), scratch.intersecting.end());
         m_triangle_tests += scratch.triangle_tests;
         m_node_tests += scratch.node_tests;
+        m_edge_tests += scratch.edge_tests;
     }
     std::sort(m_intersecting.begin(), m_intersecting.end());
     m_candidates.clear();
@@ -673,6 +680,15 @@ void NarrowPhase::merge_results()
     std::sort(m_candidates.begin(), m_candidates.end(),
         [](const NodeCandidate& x, const NodeCandidate& y) {
             return std::make_pair(x.body, x.node) < std::make_pair(y.body, y.node);
+        });
+    // The edge work list is in (body, filed face) order: sorted by (body, edge).
+    m_edge_candidates.clear();
+    for (std::size_t k = 0; k < m_edge_work.size(); ++k)
+        if (m_edge_found[k])
+            m_edge_candidates.push_back(m_edge_best[k]);
+    std::sort(m_edge_candidates.begin(), m_edge_candidates.end(),
+        [](const EdgeCandidate& x, const EdgeCandidate& y) {
+            return std::make_pair(x.body, x.edge) < std::make_pair(y.body, y.edge);
         });
 }
 
@@ -694,6 +710,17 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
     in_chunks(m_node_work.size(), [&](Scratch& scratch, std::size_t k) {
         m_node_found[k]
             = nearest_triangle(bodies, margin, lookahead, extra, scratch, k, m_node_best[k]);
+    });
+    // Edges: against the edges of the faces of every partner body (the lower body of two dynamic
+    // ones searches); the nearest wins, ties to the lowest (body, edge).
+    m_edge_work.clear();
+    if (m_edge_contacts)
+        build_edge_work(bodies);
+    m_edge_best.resize(m_edge_work.size());
+    m_edge_found.assign(m_edge_work.size(), 0);
+    in_chunks(m_edge_work.size(), [&](Scratch& scratch, std::size_t k) {
+        m_edge_found[k]
+            = nearest_edge(bodies, margin, lookahead, extra, scratch, k, m_edge_best[k]);
     });
     merge_results();
 }

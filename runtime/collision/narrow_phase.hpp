@@ -86,6 +86,33 @@ struct NodeCandidate {
     Vec3 normal = Vec3::UnitY(); ///< the triangle's unit outward normal
 };
 
+/// The nearest edge of another body (or of a self-colliding part of its own) to one surface edge,
+/// where the closest points of the two edges lie inside both (docs/method.md, "Edge contacts"):
+/// two edges that cross between their vertices, which no vertex-face contact sees.
+struct EdgeCandidate {
+    int body = 0;
+    int edge = 0; ///< into NarrowPhase::edges(body)
+    int other_body = 0;
+    int other_edge = 0;
+    double s = 0.0; ///< the closest point on the edge: (1 - s) x0 + s x1
+    double t = 0.0; ///< ... on the other edge: (1 - t) y0 + t y1
+    /// Signed gap along `normal`: the distance when the edge is in front of the other body's
+    /// surface, minus it when the two have crossed.
+    double distance = 0.0;
+    Vec3 normal = Vec3::UnitY(); ///< unit, outward of the other body (towards the edge)
+};
+
+/// A surface's edges: each once, its two vertices (increasing) and up to two faces; each face's
+/// three edges.
+struct SurfaceEdges {
+    std::vector<std::array<int, 2>> vertices; ///< per edge
+    std::vector<std::array<int, 2>> faces; ///< per edge, its faces (-1: none)
+    std::vector<std::array<int, 3>> of_face; ///< per face, its edges (v0 v1, v1 v2, v2 v0)
+};
+
+/// The edges of a triangle mesh (#F x 3 vertex indices).
+SurfaceEdges build_surface_edges(const MatX3i& faces);
+
 /// An active face as the nodes' search reads it, once per run: its corners, unit normal (UnitY
 /// if degenerate) and the fastest of its corners' velocities along that normal.
 struct NarrowFace {
@@ -107,6 +134,19 @@ public:
     /// bodies must be the same ones (same meshes) from one call to the next.
     void run(const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs,
         double margin, double lookahead = 0.0, double extra = 0.0);
+    /// Whether run() also finds edge-edge candidates (on bodies whose nodes are their surface
+    /// vertices; off by default).
+    void set_edge_contacts(bool on) { m_edge_contacts = on; }
+
+    /// One candidate per active surface edge of a dynamic body that has an edge of a partner
+    /// within the margin, the speculative reach, or crossed within the margin (each pair of
+    /// edges found once: from the lower (body, edge) of two dynamic bodies, from the dynamic one
+    /// against a static one); sorted by (body, edge).
+    const std::vector<EdgeCandidate>& edge_candidates() const { return m_edge_candidates; }
+    /// The edges of body b (empty unless edge contacts are on).
+    const SurfaceEdges& edges(int b) const { return m_bodies[static_cast<std::size_t>(b)].edges; }
+    /// Distinct edge-edge pairs tested.
+    long edge_tests() const { return m_edge_tests; }
 
     /// The distinct intersecting triangle pairs, sorted.
     const std::vector<FacePair>& intersecting() const { return m_intersecting; }
@@ -160,12 +200,31 @@ private:
         Vec3 mean_velocity = Vec3::Zero();
         double velocity_spread = 0.0;
         std::vector<int> partners; ///< bodies with a colliding pair, increasing (may hold itself)
+        SurfaceEdges edges; ///< with edge contacts
+        /// An active edge as the edges' search reads it, once per run: its ends, their
+        /// velocities (mean, spread about it, the faster one's speed), box, and outward
+        /// direction (the sum of its faces' unit normals).
+        struct ActiveEdge {
+            int edge = 0;
+            Vec3 x0 = Vec3::Zero(), x1 = Vec3::Zero();
+            Vec3 v0 = Vec3::Zero(), v1 = Vec3::Zero();
+            Vec3 mean = Vec3::Zero();
+            double spread = 0.0;
+            double speed = 0.0;
+            Box3 box;
+            Vec3 outward = Vec3::Zero();
+        };
+        /// The active edges, each under the first of its active faces in `grid`'s order:
+        /// those of position k at [edge_begin[k], edge_begin[k + 1]).
+        std::vector<ActiveEdge> active_edges;
+        std::vector<int> edge_begin;
         std::vector<std::uint64_t> self_pairs; ///< (low primitive << 32) | high, sorted
     };
     struct Scratch {
         std::vector<FacePair> intersecting;
         long triangle_tests = 0;
         long node_tests = 0;
+        long edge_tests = 0;
     };
 
     void prepare(const std::vector<NarrowPhaseBody>& bodies);
@@ -202,6 +261,16 @@ private:
         double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
     /// Whether node `node` of body `body` never pairs with its own face `face`.
     bool own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const;
+    /// m_edge_work: each active edge of a dynamic body once, from the first of its active faces.
+    void build_edge_work(const std::vector<NarrowPhaseBody>& bodies);
+    /// A body's BodyData::active_edges (after file_faces).
+    void collect_active_edges(const NarrowPhaseBody& body, BodyData& data) const;
+    /// The nearest edge to edge m_edge_work[k] in `best`; false if none qualifies.
+    bool nearest_edge(const std::vector<NarrowPhaseBody>& bodies, double margin, double lookahead,
+        double extra, Scratch& scratch, std::size_t k, EdgeCandidate& best) const;
+    /// Whether edges ea and eb of one body never pair: they share a vertex, or a vertex of one is
+    /// near a face of the other at rest, or no colliding self pair holds their faces.
+    bool own_edge_excluded(const NarrowPhaseBody& own, int body, int ea, int eb) const;
     /// Gathers the chunks' results into m_intersecting and m_candidates, sorted.
     void merge_results();
 
@@ -210,6 +279,12 @@ private:
     std::vector<BodyData> m_bodies;
     std::vector<std::array<int, 2>> m_work; ///< (body, index into its active faces)
     std::vector<std::array<int, 2>> m_node_work; ///< (body, index into its active nodes)
+    std::vector<std::array<int, 2>> m_edge_work; ///< (body, index into its active_edges)
+    std::vector<EdgeCandidate> m_edge_best; ///< per m_edge_work
+    std::vector<char> m_edge_found;
+    std::vector<EdgeCandidate> m_edge_candidates;
+    long m_edge_tests = 0;
+    bool m_edge_contacts = false;
     std::vector<NodeCandidate> m_node_best; ///< per m_node_work
     std::vector<char> m_node_found;
     /// One per chunk of the work lists (a fixed number, never per thread): each chunk's results
