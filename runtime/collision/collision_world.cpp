@@ -391,6 +391,7 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         view.node_indptr = &body.vertex_indptr;
         view.node_list = &body.vertex_list;
         view.nodes_are_vertices = true;
+        view.rest_surface = &body.model->rest_surface();
         view.rest_near_indptr = body.rest_near_radius >= 0.0 ? &body.rest_near_indptr : nullptr;
         view.rest_near_list = &body.rest_near_list;
         view.is_static = states[b].is_static;

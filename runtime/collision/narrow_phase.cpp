@@ -92,7 +92,7 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         data.partners.reserve(bodies.size());
         data.active.reserve(static_cast<std::size_t>(num_primitives));
         if (m_edge_contacts && body.nodes_are_vertices)
-            data.edges = build_surface_edges(*body.faces);
+            find_sharp_edges(body, data);
     }
 }
 
@@ -122,7 +122,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     const int axis = m_axis;
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
         file_faces(body, data, axis);
-        collect_active_edges(body, data);
+        collect_active_edges(body, data, axis);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
     });
@@ -711,8 +711,8 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
         m_node_found[k]
             = nearest_triangle(bodies, margin, lookahead, extra, scratch, k, m_node_best[k]);
     });
-    // Edges: against the edges of the faces of every partner body (the lower body of two dynamic
-    // ones searches); the nearest wins, ties to the lowest (body, edge).
+    // Sharp edges: against the sharp edges of every partner body within their reach (the lower
+    // body of two dynamic ones searches); the nearest wins, ties to the lowest (body, edge).
     m_edge_work.clear();
     if (m_edge_contacts)
         build_edge_work(bodies);

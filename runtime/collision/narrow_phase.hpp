@@ -65,6 +65,9 @@ struct NarrowPhaseBody {
     /// The "nodes" are the surface vertices (indices into `faces`): a vertex never pairs with a
     /// triangle of its own body that has it as a corner.
     bool nodes_are_vertices = false;
+    /// #Vs x 3 surface vertex positions at rest: the sharp edges (edge contacts) are the rest
+    /// shape's (null: the surface's at the body's first run).
+    const MatX3* rest_surface = nullptr;
 };
 
 /// A colliding primitive pair as the narrow phase reads it.
@@ -135,8 +138,21 @@ public:
     void run(const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs,
         double margin, double lookahead = 0.0, double extra = 0.0);
     /// Whether run() also finds edge-edge candidates (on bodies whose nodes are their surface
-    /// vertices; off by default).
-    void set_edge_contacts(bool on) { m_edge_contacts = on; }
+    /// vertices; off by default), and how far apart the normals of a convex edge's faces must be
+    /// at rest for it to take contacts in front of another such edge (degrees; docs/method.md,
+    /// "Edge contacts"). Before the first run.
+    void set_edge_contacts(bool on, double sharp_degrees = default_sharp_edge_degrees)
+    {
+        m_edge_contacts = on;
+        m_sharp_cosine = std::cos(sharp_degrees * M_PI / 180.0);
+    }
+    /// Edges whose faces' normals are at least this far apart at rest (and convex) are sharp:
+    /// only two sharp edges take a contact in front of each other. Two edges that meet flatter are
+    /// held by their surfaces' vertex-face contacts (between vertices held out of the other
+    /// surface, two convex edges of exterior angles a and b can cross by at most about a quarter of
+    /// their length times tan(a / 2) + tan(b / 2)); crossed edges are taken whatever their angle.
+    /// On the sample creature 12% of the edges are this sharp.
+    static constexpr double default_sharp_edge_degrees = 20.0;
 
     /// One candidate per active surface edge of a dynamic body that has an edge of a partner
     /// within the margin, the speculative reach, or crossed within the margin (each pair of
@@ -186,6 +202,7 @@ private:
         std::vector<FaceMotion> motion;
         /// Per position in `grid`.
         std::vector<NarrowFace> geometry;
+
         /// Per column of `grid`: the box of its faces and their motion (FaceMotion of all its
         /// faces together: the fastest corner, the mean of the faces' means, and how far a
         /// corner's velocity is from it at most), so that a node's search grows by the reach of
@@ -201,6 +218,7 @@ private:
         double velocity_spread = 0.0;
         std::vector<int> partners; ///< bodies with a colliding pair, increasing (may hold itself)
         SurfaceEdges edges; ///< with edge contacts
+        std::vector<int> sharp_edges; ///< the edges sharp at rest, increasing
         /// An active edge as the edges' search reads it, once per run: its ends, their
         /// velocities (mean, spread about it, the faster one's speed), box, and outward
         /// direction (the sum of its faces' unit normals).
@@ -214,10 +232,13 @@ private:
             Box3 box;
             Vec3 outward = Vec3::Zero();
         };
-        /// The active edges, each under the first of its active faces in `grid`'s order:
-        /// those of position k at [edge_begin[k], edge_begin[k + 1]).
+        /// The active sharp edges (an active face's that are sharp at rest: only such edges take
+        /// contacts in front of each other; docs/method.md, "Edge contacts"), and a grid of
+        /// their boxes (its items' indices are into active_edges).
         std::vector<ActiveEdge> active_edges;
-        std::vector<int> edge_begin;
+        FaceGrid edge_grid;
+        /// Per column of edge_grid: its edges' box and motion (as `columns` for the faces).
+        std::vector<ColumnMotion> edge_columns;
         std::vector<std::uint64_t> self_pairs; ///< (low primitive << 32) | high, sorted
     };
     struct Scratch {
@@ -261,10 +282,14 @@ private:
         double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
     /// Whether node `node` of body `body` never pairs with its own face `face`.
     bool own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const;
-    /// m_edge_work: each active edge of a dynamic body once, from the first of its active faces.
+    /// m_edge_work: each sharp active edge of a dynamic body once, from the first of its active
+    /// faces.
     void build_edge_work(const std::vector<NarrowPhaseBody>& bodies);
     /// A body's BodyData::active_edges (after file_faces).
-    void collect_active_edges(const NarrowPhaseBody& body, BodyData& data) const;
+    void collect_active_edges(const NarrowPhaseBody& body, BodyData& data, int axis) const;
+    /// A body's SurfaceEdges and its edges sharp at rest (first run).
+    void find_sharp_edges(const NarrowPhaseBody& body, BodyData& data) const;
+
     /// The nearest edge to edge m_edge_work[k] in `best`; false if none qualifies.
     bool nearest_edge(const std::vector<NarrowPhaseBody>& bodies, double margin, double lookahead,
         double extra, Scratch& scratch, std::size_t k, EdgeCandidate& best) const;
@@ -285,6 +310,7 @@ private:
     std::vector<EdgeCandidate> m_edge_candidates;
     long m_edge_tests = 0;
     bool m_edge_contacts = false;
+    double m_sharp_cosine = 0.0; ///< cos of the sharp edges' least angle
     std::vector<NodeCandidate> m_node_best; ///< per m_node_work
     std::vector<char> m_node_found;
     /// One per chunk of the work lists (a fixed number, never per thread): each chunk's results

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <tuple>
 
 #include "runtime/collision/narrow_phase.hpp"
 #include "runtime/collision/triangle_tests.hpp"
@@ -128,17 +129,6 @@ namespace {
         return false;
     }
 
-    /// Whether edge e is filed under face f: f is the lowest-index active face of the edge
-    /// (`active(face)`), so that each active edge is visited once per query.
-    template <class Active>
-    bool owns_edge(const SurfaceEdges& edges, int e, int f, const Active& active)
-    {
-        for (const int g : edges.faces[static_cast<std::size_t>(e)])
-            if (g >= 0 && g < f && active(g))
-                return false;
-        return true;
-    }
-
     /// An edge's search among the edges of one partner body.
     struct EdgeQuery {
         Vec3 x0 = Vec3::Zero(), x1 = Vec3::Zero();
@@ -152,6 +142,7 @@ namespace {
         double reach = 0.0; ///< near, plus the edge's and the other body's motion in the step
         double hold = 0.0; ///< max(near, margin): taken whatever the motion
         double lookahead = 0.0;
+        bool front = false; ///< the pair may take a contact in front (both edges are sharp)
     };
 
     /// The farthest from the query edge that an edge of faces moving as (mean velocity, fastest
@@ -213,8 +204,9 @@ namespace {
         if (side < 0.0)
             normal = -normal;
         const double gap = normal.dot(p - r);
-        // In front, only where the two edges are each other's nearest parts of the surfaces.
-        if (gap > 0.0 && !regions(p - r))
+        // In front, only between sharp edges, and where the two are each other's nearest parts
+        // of the surfaces.
+        if (gap >= 0.0 && !(q.front && regions(p - r)))
             return false;
         if (gap < 0.0) {
             // Crossed: within the margin only (further, the edge may be on the far side of a
@@ -237,34 +229,87 @@ namespace {
 
 } // namespace
 
-void NarrowPhase::collect_active_edges(const NarrowPhaseBody& body, BodyData& data) const
+void NarrowPhase::find_sharp_edges(const NarrowPhaseBody& body, BodyData& data) const
+{
+    data.edges = build_surface_edges(*body.faces);
+    data.sharp_edges.clear();
+    const MatX3& at_rest = body.rest_surface != nullptr ? *body.rest_surface : *body.surface;
+    const auto x = [&](int v) { return Vec3(at_rest.row(v).transpose()); };
+    const auto unit = [&](int f) -> Vec3 {
+        const Vec3 n = (x((*body.faces)(f, 1)) - x((*body.faces)(f, 0)))
+                           .cross(x((*body.faces)(f, 2)) - x((*body.faces)(f, 0)));
+        const double length = n.norm();
+        return length > 0.0 ? Vec3(n / length) : Vec3(Vec3::Zero());
+    };
+    for (std::size_t e = 0; e < data.edges.vertices.size(); ++e) {
+        const std::array<int, 2>& two = data.edges.faces[e];
+        const std::array<int, 2>& ends = data.edges.vertices[e];
+        if (two[1] < 0)
+            continue;
+        const Vec3 n0 = unit(two[0]);
+        const Vec3 n1 = unit(two[1]);
+        if (n0.isZero() || n1.isZero() || n0.dot(n1) > m_sharp_cosine)
+            continue;
+        // Convex: the second face's third corner lies behind the first face's plane.
+        for (int c = 0; c < 3; ++c) {
+            const int w = (*body.faces)(two[1], c);
+            if (w != ends[0] && w != ends[1] && n0.dot(x(w) - x(ends[0])) < 0.0)
+                data.sharp_edges.push_back(static_cast<int>(e));
+        }
+    }
+}
+
+// The sharp edges of the active faces, with their grid.
+void NarrowPhase::collect_active_edges(const NarrowPhaseBody& body, BodyData& data, int axis) const
 {
     data.active_edges.clear();
-    data.edge_begin.assign(data.grid.items.size() + 1, 0);
-    if (data.edges.vertices.empty())
-        return;
-    const auto active
-        = [&](int f) { return data.face_stamp[static_cast<std::size_t>(f)] == m_run; };
-    for (std::size_t k = 0; k < data.grid.items.size(); ++k) {
-        const int f = data.grid.at(k).index;
-        for (const int e : data.edges.of_face[static_cast<std::size_t>(f)]) {
-            if (e < 0 || !owns_edge(data.edges, e, f, active))
-                continue;
-            BodyData::ActiveEdge item;
-            const std::array<int, 2>& ends = data.edges.vertices[static_cast<std::size_t>(e)];
-            item.edge = e;
-            item.x0 = vertex(body, ends[0]);
-            item.x1 = vertex(body, ends[1]);
-            item.v0 = vertex_velocity(body, ends[0]);
-            item.v1 = vertex_velocity(body, ends[1]);
-            item.mean = 0.5 * (item.v0 + item.v1);
-            item.spread = 0.5 * (item.v1 - item.v0).norm();
-            item.speed = std::max(item.v0.norm(), item.v1.norm());
-            item.box = Box3(item.x0.cwiseMin(item.x1), item.x0.cwiseMax(item.x1));
-            item.outward = edge_outward(body, data.edges.faces[static_cast<std::size_t>(e)]);
-            data.active_edges.push_back(item);
+    data.edge_grid.items.clear();
+    for (const int e : data.sharp_edges) {
+        bool active = false;
+        for (const int f : data.edges.faces[static_cast<std::size_t>(e)])
+            active |= f >= 0 && data.face_stamp[static_cast<std::size_t>(f)] == m_run;
+        if (!active)
+            continue;
+        BodyData::ActiveEdge item;
+        const std::array<int, 2>& ends = data.edges.vertices[static_cast<std::size_t>(e)];
+        item.edge = e;
+        item.x0 = vertex(body, ends[0]);
+        item.x1 = vertex(body, ends[1]);
+        item.v0 = vertex_velocity(body, ends[0]);
+        item.v1 = vertex_velocity(body, ends[1]);
+        item.mean = 0.5 * (item.v0 + item.v1);
+        item.spread = 0.5 * (item.v1 - item.v0).norm();
+        item.speed = std::max(item.v0.norm(), item.v1.norm());
+        item.box = Box3(item.x0.cwiseMin(item.x1), item.x0.cwiseMax(item.x1));
+        item.outward = edge_outward(body, data.edges.faces[static_cast<std::size_t>(e)]);
+        data.edge_grid.items.push_back({ item.box, static_cast<int>(data.active_edges.size()), 0 });
+        data.active_edges.push_back(item);
+    }
+    data.edge_grid.build(axis);
+    // Each column's box and motion: its edges' fastest end, the mean of their means, and how far
+    // an end's velocity is from it at most.
+    const int columns = data.edge_grid.num_columns();
+    data.edge_columns.resize(static_cast<std::size_t>(columns));
+    for (int c = 0; c < columns; ++c) {
+        BodyData::ColumnMotion& column = data.edge_columns[static_cast<std::size_t>(c)];
+        column = BodyData::ColumnMotion {};
+        const int begin = data.edge_grid.column_begin(c);
+        const int end = data.edge_grid.column_begin(c + 1);
+        if (begin == end)
+            continue;
+        const auto edge_at = [&](int k) -> const BodyData::ActiveEdge& {
+            return data.active_edges[static_cast<std::size_t>(
+                data.edge_grid.at(static_cast<std::size_t>(k)).index)];
+        };
+        for (int k = begin; k < end; ++k) {
+            column.box.extend(edge_at(k).box);
+            column.motion.speed = std::max(column.motion.speed, edge_at(k).speed);
+            column.motion.mean += edge_at(k).mean;
         }
-        data.edge_begin[k + 1] = static_cast<int>(data.active_edges.size());
+        column.motion.mean /= static_cast<double>(end - begin);
+        for (int k = begin; k < end; ++k)
+            column.motion.spread = std::max(column.motion.spread,
+                (edge_at(k).mean - column.motion.mean).norm() + edge_at(k).spread);
     }
 }
 
@@ -308,6 +353,8 @@ bool NarrowPhase::own_edge_excluded(const NarrowPhaseBody& own, int body, int ea
     return true;
 }
 
+// A sharp edge searches its partners' faces within its reach: contacts in front of sharp edges,
+// and crossed ones (the other edges' crossings come from the intersecting triangle pairs).
 bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, double margin,
     double lookahead, double extra, Scratch& scratch, std::size_t k, EdgeCandidate& best) const
 {
@@ -329,6 +376,7 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
     query.box = own_edge.box;
     query.margin = margin;
     query.lookahead = lookahead;
+    query.front = true;
     bool found = false;
     for (const int bf : data.partners) {
         const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
@@ -341,71 +389,63 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.speed + other.motion;
         query.hold = std::max(query.near, margin);
+        // Each sharp partner edge whose box is within the reach of the two edges' motion, then
+        // the exact rule.
+        const auto test_edge = [&](const BodyData::ActiveEdge& edge) {
+            const int eb = edge.edge;
+            const double gap = box_gap(query.box, edge.box);
+            // The box's distance is at most the edges' (their closest points' distance, the
+            // gap's size): beyond the best hit so far, it loses.
+            if ((found && gap > (1.0 + 1e-9) * std::abs(best.distance))
+                || gap > edge_reach(query, edge.mean, edge.speed, edge.spread))
+                return;
+            if (bf == be && (eb <= ea || own_edge_excluded(own, be, ea, eb)))
+                return;
+            ++scratch.edge_tests;
+            const std::array<int, 2>& other_ends
+                = faces.edges.vertices[static_cast<std::size_t>(eb)];
+            const auto outward = [&]() -> Vec3 { return edge.outward - own_edge.outward; };
+            const auto regions = [&](const Vec3& d) {
+                return in_edge_region(
+                           other, other_ends, faces.edges.faces[static_cast<std::size_t>(eb)], d)
+                    && in_edge_region(
+                        own, ends, data.edges.faces[static_cast<std::size_t>(ea)], -d);
+            };
+            const auto crossed = [&]() {
+                return edge_through_faces(
+                           own, ends, other, faces.edges.faces[static_cast<std::size_t>(eb)])
+                    || edge_through_faces(
+                        other, other_ends, own, data.edges.faces[static_cast<std::size_t>(ea)]);
+            };
+            EdgeCandidate hit;
+            if (!edge_edge_hit(
+                    query, edge.x0, edge.x1, edge.v0, edge.v1, outward, regions, crossed, hit))
+                return;
+            if (found
+                && (std::abs(hit.distance) > std::abs(best.distance)
+                    || (std::abs(hit.distance) == std::abs(best.distance)
+                        && std::make_pair(bf, eb)
+                            > std::make_pair(best.other_body, best.other_edge))))
+                return;
+            hit.body = be;
+            hit.edge = ea;
+            hit.other_body = bf;
+            hit.other_edge = eb;
+            best = hit;
+            found = true;
+        };
         const double most = edge_reach(query, faces.mean_velocity,
             std::numeric_limits<double>::infinity(), faces.velocity_spread);
-        // Each column grows by the reach of its own faces' motion, and is skipped when its box
-        // is beyond it; each face and each edge likewise.
+        // Each column grows by the reach of its own edges' motion, and is skipped when its box
+        // is beyond it.
         const auto column_grow = [&](int c) {
-            const BodyData::ColumnMotion& column = faces.columns[static_cast<std::size_t>(c)];
+            const BodyData::ColumnMotion& column = faces.edge_columns[static_cast<std::size_t>(c)];
             const double reach
                 = edge_reach(query, column.motion.mean, column.motion.speed, column.motion.spread);
-            return box_gap(query.box, column.box) > reach ? -1.0 : reach;
+            return box_gap(query.box, column.box) > reach ? -1.0 : std::min(reach, most);
         };
-        faces.grid.overlapping(query.box, most, column_grow, [&](int, int at) {
-            const std::size_t position = static_cast<std::size_t>(at);
-            const int begin = faces.edge_begin[position];
-            const int end = faces.edge_begin[position + 1];
-            if (begin == end)
-                return;
-            const BodyData::FaceMotion& motion = faces.motion[position];
-            if (box_gap(query.box, faces.grid.at(position).box)
-                > edge_reach(query, motion.mean, motion.speed, motion.spread))
-                return;
-            for (int i = begin; i < end; ++i) {
-                const BodyData::ActiveEdge& edge = faces.active_edges[static_cast<std::size_t>(i)];
-                const int eb = edge.edge;
-                // The box's distance is at most the edges' (their closest points' distance, the
-                // gap's size): beyond the best hit so far, it loses.
-                const double gap = box_gap(query.box, edge.box);
-                if ((found && gap > (1.0 + 1e-9) * std::abs(best.distance))
-                    || gap > edge_reach(query, edge.mean, edge.speed, edge.spread))
-                    continue;
-                if (bf == be && (eb <= ea || own_edge_excluded(own, be, ea, eb)))
-                    continue;
-                ++scratch.edge_tests;
-                const std::array<int, 2>& other_ends
-                    = faces.edges.vertices[static_cast<std::size_t>(eb)];
-                const auto outward = [&]() -> Vec3 { return edge.outward - own_edge.outward; };
-                const auto regions = [&](const Vec3& d) {
-                    return in_edge_region(other, other_ends,
-                               faces.edges.faces[static_cast<std::size_t>(eb)], d)
-                        && in_edge_region(
-                            own, ends, data.edges.faces[static_cast<std::size_t>(ea)], -d);
-                };
-                const auto crossed = [&]() {
-                    return edge_through_faces(
-                               own, ends, other, faces.edges.faces[static_cast<std::size_t>(eb)])
-                        || edge_through_faces(
-                            other, other_ends, own, data.edges.faces[static_cast<std::size_t>(ea)]);
-                };
-                EdgeCandidate hit;
-                if (!edge_edge_hit(
-                        query, edge.x0, edge.x1, edge.v0, edge.v1, outward, regions, crossed, hit))
-                    continue;
-                if (found
-                    && (std::abs(hit.distance) > std::abs(best.distance)
-                        || (std::abs(hit.distance) == std::abs(best.distance)
-                            && std::make_pair(bf, eb)
-                                > std::make_pair(best.other_body, best.other_edge))))
-                    continue;
-                hit.body = be;
-                hit.edge = ea;
-                hit.other_body = bf;
-                hit.other_edge = eb;
-                best = hit;
-                found = true;
-            }
-        });
+        faces.edge_grid.overlapping(query.box, most, column_grow,
+            [&](int slot, int) { test_edge(faces.active_edges[static_cast<std::size_t>(slot)]); });
     }
     return found;
 }

@@ -271,10 +271,11 @@ namespace {
                 .set_doc("collision between non-adjacent medial primitives of one object (with "
                          "collision on)"),
             enum_key(S::solver, "edge_contacts", &SolverSettings::edge_contacts, { "on", "off" })
-                .set_default("off")
-                .set_doc("contacts between surface edges that meet between their vertices (a "
-                         "ridge across a ridge), besides those of a vertex against a face; about "
-                         "three times the detection time (docs/method.md, \"Edge contacts\")"),
+                .set_default("on")
+                .set_doc("contacts between sharp surface edges (convex, their faces at least 20 "
+                         "degrees apart at rest) that meet between their vertices, such as a "
+                         "ridge across a ridge, besides those of a vertex against a face "
+                         "(docs/method.md, \"Edge contacts\")"),
             value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
                 .set_default(0.01)
                 .at_least(0)

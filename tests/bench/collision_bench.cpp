@@ -124,6 +124,7 @@ int run(int argc, char** argv)
         CollisionSettings settings;
         settings.self = scene.solver.self_collision;
         settings.margin = scene.solver.collision_margin;
+        settings.edges = scene.solver.edge_contacts;
         settings.bounds = bounds;
         CollisionVariants variants;
         variants.all_pairs = all_pairs;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Collision world per step on two creatures of about 270 primitives each in contact, 2 threads.
-#   tests/bench/collision_bench.sh [BUILD_DIR] [STEPS] [REPEATS] [ROUNDS]
+#   tests/bench/collision_bench.sh [BUILD_DIR] [STEPS] [REPEATS] [ROUNDS] [EDGE_CONTACTS]
 # Bakes the creature sample's surface with a generated 230-sphere medial mesh (267 primitives;
 # --weights-per-node 16: with 8 this medial mesh gives a rank-deficient basis), drops one
 # creature on the other for STEPS steps (25 by default: the two then press into each other,
@@ -15,6 +15,7 @@ build="${1:-$root/build}"
 steps="${2:-25}"
 repeats="${3:-200}"
 rounds="${4:-5}"
+edges="${5:-on}" # solver.edge_contacts: on or off
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 
@@ -23,7 +24,7 @@ trap 'rm -rf "$work"' EXIT
 cat >"$work/scene.json" <<JSON
 {
   "time": { "dt": 0.0166666667, "iterations": 10 },
-  "solver": { "collision": "bounded" },
+  "solver": { "collision": "bounded", "edge_contacts": "$edges" },
   "objects": [
     { "name": "lower", "bake": "creature.h5", "position": [0, 0.44, 0] },
     { "name": "upper", "bake": "creature.h5", "position": [0.05, 1.15, 0],

@@ -411,8 +411,9 @@ namespace {
 
     /// The edge-edge rule of docs/method.md ("Edge contacts") for edge (a0, a1) of body `a`
     /// against edge (b0, b1) of body `b`, applied from scratch: closest points inside both,
-    /// the gap along the lines' normal turned by the outward directions, in front within reach
-    /// of the approach and in both Voronoi regions, or crossed within the margin through a face.
+    /// two sharp edges, the gap along the lines' normal turned by the outward directions, in
+    /// front within reach of the approach and in both Voronoi regions, or crossed within the
+    /// margin through a face.
     struct EdgeRule {
         const PlacedBody& a;
         const PlacedBody& b;
@@ -421,6 +422,7 @@ namespace {
         double margin = 0.0;
         double lookahead = 0.0;
         double other_motion = 0.0; ///< body b's motion bound in the step
+        double sharp_degrees = 20.0;
 
         Vec3 x(const PlacedBody& body, int v) const { return body.surface.row(v).transpose(); }
         Vec3 v(const PlacedBody& body, int i) const
@@ -455,6 +457,22 @@ namespace {
                 }
             return true;
         }
+        /// Convex, with its faces' normals at least sharp_degrees apart.
+        bool sharp(const PlacedBody& body, const std::array<int, 2>& ends,
+            const std::array<int, 2>& faces) const
+        {
+            const auto normal = [&](int f) {
+                return (x(body, body.faces(f, 1)) - x(body, body.faces(f, 0)))
+                    .cross(x(body, body.faces(f, 2)) - x(body, body.faces(f, 0)))
+                    .normalized();
+            };
+            int third = -1;
+            for (int c = 0; c < 3; ++c)
+                if (body.faces(faces[1], c) != ends[0] && body.faces(faces[1], c) != ends[1])
+                    third = body.faces(faces[1], c);
+            return normal(faces[0]).dot(x(body, third) - x(body, ends[0])) < 0.0
+                && normal(faces[0]).dot(normal(faces[1])) <= std::cos(sharp_degrees * M_PI / 180.0);
+        }
         bool through(const PlacedBody& p, const std::array<int, 2>& ends, const PlacedBody& q,
             const std::array<int, 2>& faces) const
         {
@@ -472,6 +490,10 @@ namespace {
             const auto& ib = edges_b.vertices[static_cast<std::size_t>(eb)];
             const double reach = margin
                 + lookahead * std::max(v(a, ia[0]).norm(), v(a, ia[1]).norm()) + other_motion;
+            // Two sharp edges only (these placements are rigid: sharp as at rest).
+            if (!(sharp(a, ia, edges_a.faces[static_cast<std::size_t>(ea)])
+                    && sharp(b, ib, edges_b.faces[static_cast<std::size_t>(eb)])))
+                return std::nullopt;
             const Vec3 a0 = x(a, ia[0]), a1 = x(a, ia[1]), b0 = x(b, ib[0]), b1 = x(b, ib[1]);
             const Vec3 cross = (a1 - a0).cross(b1 - b0);
             if (!(cross.norm() > 1e-3 * (a1 - a0).norm() * (b1 - b0).norm()))
@@ -493,8 +515,8 @@ namespace {
                     return std::nullopt;
                 return g;
             }
-            if (g > 0.0
-                && !(region(b, ib, edges_b.faces[static_cast<std::size_t>(eb)], d)
+            // In front: each in the other's Voronoi region.
+            if (!(region(b, ib, edges_b.faces[static_cast<std::size_t>(eb)], d)
                     && region(a, ia, edges_a.faces[static_cast<std::size_t>(ea)], -d)))
                 return std::nullopt;
             const Vec3 va = (1.0 - c.s) * v(a, ia[0]) + c.s * v(a, ia[1]);
@@ -507,7 +529,8 @@ namespace {
     };
 
     // Edge contacts between two creatures (surface vertices as nodes, as in a run), at rest and
-    // spinning towards each other with a lookahead: every candidate satisfies the rule of
+    // spinning towards each other with a lookahead, with the default sharp angle and with every
+    // convex edge sharp (many more pairs in front): every candidate satisfies the rule of
     // docs/method.md (recomputed here from scratch), each edge has one, the same on 1, 2 and 3
     // threads; and no edge of the other body that the rule takes is nearer to a candidate's
     // edge than its candidate (the search's bounds drop nothing it needs).
@@ -516,109 +539,118 @@ namespace {
         const Mat3 turn = Eigen::AngleAxisd(0.5, Vec3::UnitY()).toRotationMatrix();
         const Vec3 at(0.05, 0.4, 0.02);
         const double margin = 0.013;
-        for (const bool moving : { false, true }) {
-            const Vec3 spin0 = moving ? Vec3(0.0, 0.0, 2.0) : Vec3::Zero();
-            const Vec3 spin1 = moving ? Vec3(1.0, -3.0, 0.5) : Vec3::Zero();
-            const double lookahead = moving ? 0.04 : 0.0;
-            const PlacedBody body0(Mat3::Identity(), Vec3::Zero(), &spin0,
-                moving ? Vec3(0.0, 1.6, 0.0) : Vec3::Zero());
-            const PlacedBody body1(turn, at, &spin1, moving ? Vec3(0.0, -1.6, 0.0) : Vec3::Zero());
-            // Each body's motion bound in the step, as a run sets it: the lookahead times its
-            // fastest vertex; its primitives grow by it (as the collision world's bounds do), and
-            // every pair of the two bodies' primitives whose grown boxes overlap goes on.
-            std::vector<NarrowPhaseBody> views { body0.view, body1.view };
-            for (std::size_t b = 0; b < 2; ++b) {
-                const PlacedBody& body = b == 0 ? body0 : body1;
-                views[b].motion = lookahead * body.velocities.rowwise().norm().maxCoeff();
-            }
-            const auto grown_box = [](const Box3& box, double by) {
-                return Box3(box.min().array() - by, box.max().array() + by);
-            };
-            std::vector<PrimitivePairRef> pairs;
-            for (int p = 0; p < static_cast<int>(body0.primitive_boxes.size()); ++p)
-                for (int q = 0; q < static_cast<int>(body1.primitive_boxes.size()); ++q) {
-                    const Box3 cross = grown_box(
-                        body0.primitive_boxes[static_cast<std::size_t>(p)], views[0].motion)
-                                           .intersection(grown_box(
-                                               body1.primitive_boxes[static_cast<std::size_t>(q)],
-                                               views[1].motion));
-                    if (!cross.isEmpty())
-                        pairs.push_back({ 0, p, 1, q, cross });
+        for (const double sharp : { NarrowPhase::default_sharp_edge_degrees, 0.0 })
+            for (const bool moving : { false, true }) {
+                const Vec3 spin0 = moving ? Vec3(0.0, 0.0, 2.0) : Vec3::Zero();
+                const Vec3 spin1 = moving ? Vec3(1.0, -3.0, 0.5) : Vec3::Zero();
+                const double lookahead = moving ? 0.04 : 0.0;
+                const PlacedBody body0(Mat3::Identity(), Vec3::Zero(), &spin0,
+                    moving ? Vec3(0.0, 1.6, 0.0) : Vec3::Zero());
+                const PlacedBody body1(
+                    turn, at, &spin1, moving ? Vec3(0.0, -1.6, 0.0) : Vec3::Zero());
+                // Each body's motion bound in the step, as a run sets it: the lookahead times its
+                // fastest vertex; its primitives grow by it (as the collision world's bounds do),
+                // and every pair of the two bodies' primitives whose grown boxes overlap goes on.
+                std::vector<NarrowPhaseBody> views { body0.view, body1.view };
+                for (std::size_t b = 0; b < 2; ++b) {
+                    const PlacedBody& body = b == 0 ? body0 : body1;
+                    views[b].motion = lookahead * body.velocities.rowwise().norm().maxCoeff();
                 }
-            NarrowPhase narrow;
-            narrow.set_edge_contacts(true);
-            std::vector<EdgeCandidate> first;
-            for (const int threads : { 1, 2, 3 }) {
-                tbb::task_arena arena(threads);
-                arena.execute([&] { narrow.run(views, pairs, margin, lookahead); });
-                const std::vector<EdgeCandidate>& found = narrow.edge_candidates();
-                const std::string what = std::string(moving ? "moving" : "at rest") + ", threads "
-                    + std::to_string(threads);
-                if (threads > 1) {
-                    ASSERT_EQ(found.size(), first.size()) << what;
-                    for (std::size_t k = 0; k < found.size(); ++k) {
-                        EXPECT_EQ(found[k].edge, first[k].edge) << what;
-                        EXPECT_EQ(found[k].other_edge, first[k].other_edge) << what;
-                        EXPECT_EQ(found[k].distance, first[k].distance) << what;
-                    }
-                    continue;
-                }
-                first = found;
-                EXPECT_GT(found.size(), 10u) << what;
-                const EdgeRule rule { body0, body1, narrow.edges(0), narrow.edges(1), margin,
-                    lookahead, views[1].motion };
-                const double reach = margin + views[0].motion + views[1].motion;
-                for (std::size_t k = 0; k < found.size(); ++k) {
-                    const EdgeCandidate& c = found[k];
-                    ASSERT_EQ(c.body, 0) << what;
-                    ASSERT_EQ(c.other_body, 1) << what;
-                    if (k > 0) {
-                        EXPECT_LT(found[k - 1].edge, c.edge) << what;
-                    }
-                    const std::optional<double> gap = rule.gap(c.edge, c.other_edge);
-                    ASSERT_TRUE(gap.has_value()) << what << ": edge " << c.edge;
-                    EXPECT_NEAR(*gap, c.distance, 1e-12) << what;
-                }
-                // Every edge of body 0 that the rule pairs with an edge of body 1 has a
-                // candidate, and none nearer than it (every face of these placements lies in the
-                // regions of its primitives' pairs).
-                std::map<int, double> nearest;
-                const SurfaceEdges& e0 = narrow.edges(0);
-                const SurfaceEdges& e1 = narrow.edges(1);
-                const auto edge_box = [](const PlacedBody& body, const std::array<int, 2>& ends) {
-                    const Vec3 p = body.surface.row(ends[0]).transpose();
-                    const Vec3 q = body.surface.row(ends[1]).transpose();
-                    return Box3(p.cwiseMin(q), p.cwiseMax(q));
+                const auto grown_box = [](const Box3& box, double by) {
+                    return Box3(box.min().array() - by, box.max().array() + by);
                 };
-                for (int ea = 0; ea < static_cast<int>(e0.vertices.size()); ++ea) {
-                    const Box3 box = edge_box(body0, e0.vertices[static_cast<std::size_t>(ea)]);
-                    const Box3 grown(box.min().array() - reach, box.max().array() + reach);
-                    for (int eb = 0; eb < static_cast<int>(e1.vertices.size()); ++eb) {
-                        if (!grown.intersects(
-                                edge_box(body1, e1.vertices[static_cast<std::size_t>(eb)])))
-                            continue;
-                        const std::optional<double> gap = rule.gap(ea, eb);
-                        if (!gap.has_value())
-                            continue;
-                        const auto it = nearest.find(ea);
-                        if (it == nearest.end() || std::abs(*gap) < it->second)
-                            nearest[ea] = std::abs(*gap);
+                std::vector<PrimitivePairRef> pairs;
+                for (int p = 0; p < static_cast<int>(body0.primitive_boxes.size()); ++p)
+                    for (int q = 0; q < static_cast<int>(body1.primitive_boxes.size()); ++q) {
+                        const Box3 cross
+                            = grown_box(
+                                body0.primitive_boxes[static_cast<std::size_t>(p)], views[0].motion)
+                                  .intersection(
+                                      grown_box(body1.primitive_boxes[static_cast<std::size_t>(q)],
+                                          views[1].motion));
+                        if (!cross.isEmpty())
+                            pairs.push_back({ 0, p, 1, q, cross });
                     }
-                }
-                std::map<int, double> by_edge;
-                for (const EdgeCandidate& c : found)
-                    by_edge[c.edge] = std::abs(c.distance);
-                for (const auto& [edge, distance] : nearest) {
-                    const auto it = by_edge.find(edge);
-                    if (it == by_edge.end()) {
-                        ADD_FAILURE() << what << ": no candidate for edge " << edge;
+                NarrowPhase narrow;
+                narrow.set_edge_contacts(true, sharp);
+                std::vector<EdgeCandidate> first;
+                for (const int threads : { 1, 2, 3 }) {
+                    tbb::task_arena arena(threads);
+                    arena.execute([&] { narrow.run(views, pairs, margin, lookahead); });
+                    const std::vector<EdgeCandidate>& found = narrow.edge_candidates();
+                    const std::string what = std::string(moving ? "moving" : "at rest")
+                        + ", sharp at " + std::to_string(sharp) + " degrees, threads "
+                        + std::to_string(threads);
+                    if (threads > 1) {
+                        ASSERT_EQ(found.size(), first.size()) << what;
+                        for (std::size_t k = 0; k < found.size(); ++k) {
+                            EXPECT_EQ(found[k].edge, first[k].edge) << what;
+                            EXPECT_EQ(found[k].other_edge, first[k].other_edge) << what;
+                            EXPECT_EQ(found[k].distance, first[k].distance) << what;
+                        }
                         continue;
                     }
-                    EXPECT_LE(it->second, distance + 1e-12) << what << ": edge " << edge;
+                    first = found;
+                    // At 20 degrees these two smooth creatures have few sharp edges facing
+                    // each other (none here); with every convex edge sharp, many.
+                    if (sharp == 0.0) {
+                        EXPECT_GT(found.size(), 10u) << what;
+                    }
+                    const EdgeRule rule { body0, body1, narrow.edges(0), narrow.edges(1), margin,
+                        lookahead, views[1].motion, sharp };
+                    const double reach = margin + views[0].motion + views[1].motion;
+                    for (std::size_t k = 0; k < found.size(); ++k) {
+                        const EdgeCandidate& c = found[k];
+                        ASSERT_EQ(c.body, 0) << what;
+                        ASSERT_EQ(c.other_body, 1) << what;
+                        if (k > 0) {
+                            EXPECT_LT(found[k - 1].edge, c.edge) << what;
+                        }
+                        const std::optional<double> gap = rule.gap(c.edge, c.other_edge);
+                        ASSERT_TRUE(gap.has_value()) << what << ": edge " << c.edge;
+                        EXPECT_NEAR(*gap, c.distance, 1e-12) << what;
+                    }
+                    // Every edge of body 0 that the rule pairs with an edge of body 1 has a
+                    // candidate, and none nearer than it (every face of these placements lies in
+                    // the regions of its primitives' pairs).
+                    std::map<int, double> nearest;
+                    const SurfaceEdges& e0 = narrow.edges(0);
+                    const SurfaceEdges& e1 = narrow.edges(1);
+                    const auto edge_box
+                        = [](const PlacedBody& body, const std::array<int, 2>& ends) {
+                              const Vec3 p = body.surface.row(ends[0]).transpose();
+                              const Vec3 q = body.surface.row(ends[1]).transpose();
+                              return Box3(p.cwiseMin(q), p.cwiseMax(q));
+                          };
+                    for (int ea = 0; ea < static_cast<int>(e0.vertices.size()); ++ea) {
+                        const Box3 box = edge_box(body0, e0.vertices[static_cast<std::size_t>(ea)]);
+                        const Box3 grown(box.min().array() - reach, box.max().array() + reach);
+                        for (int eb = 0; eb < static_cast<int>(e1.vertices.size()); ++eb) {
+                            if (!grown.intersects(
+                                    edge_box(body1, e1.vertices[static_cast<std::size_t>(eb)])))
+                                continue;
+                            const std::optional<double> gap = rule.gap(ea, eb);
+                            if (!gap.has_value())
+                                continue;
+                            const auto it = nearest.find(ea);
+                            if (it == nearest.end() || std::abs(*gap) < it->second)
+                                nearest[ea] = std::abs(*gap);
+                        }
+                    }
+                    std::map<int, double> by_edge;
+                    for (const EdgeCandidate& c : found)
+                        by_edge[c.edge] = std::abs(c.distance);
+                    for (const auto& [edge, distance] : nearest) {
+                        const auto it = by_edge.find(edge);
+                        if (it == by_edge.end()) {
+                            ADD_FAILURE() << what << ": no candidate for edge " << edge;
+                            continue;
+                        }
+                        EXPECT_LE(it->second, distance + 1e-12) << what << ": edge " << edge;
+                    }
+                    EXPECT_EQ(by_edge.size(), nearest.size()) << what;
                 }
-                EXPECT_EQ(by_edge.size(), nearest.size()) << what;
             }
-        }
     }
 
 } // namespace
