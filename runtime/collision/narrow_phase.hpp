@@ -89,9 +89,9 @@ struct NodeCandidate {
     Vec3 normal = Vec3::UnitY(); ///< the triangle's unit outward normal
 };
 
-/// The nearest edge of another body (or of a self-colliding part of its own) to one surface edge,
-/// where the closest points of the two edges lie inside both (docs/method.md, "Edge contacts"):
-/// two edges that cross between their vertices, which no vertex-face contact sees.
+/// The nearest sharp edge of another body (or of a self-colliding part of its own) to one sharp
+/// surface edge, where the closest points of the two edges lie inside both (docs/method.md, "Edge
+/// contacts"): two edges that cross between their vertices, which no vertex-face contact sees.
 struct EdgeCandidate {
     int body = 0;
     int edge = 0; ///< into NarrowPhase::edges(body)
@@ -154,10 +154,10 @@ public:
     /// On the sample creature 12% of the edges are this sharp.
     static constexpr double default_sharp_edge_degrees = 20.0;
 
-    /// One candidate per active surface edge of a dynamic body that has an edge of a partner
-    /// within the margin, the speculative reach, or crossed within the margin (each pair of
-    /// edges found once: from the lower (body, edge) of two dynamic bodies, from the dynamic one
-    /// against a static one); sorted by (body, edge).
+    /// One candidate per active sharp edge of a dynamic body that has a sharp edge of a partner
+    /// in front within the margin or the speculative reach, or crossed within the margin (each
+    /// pair of edges found once: from the lower (body, edge) of two dynamic bodies, from the
+    /// dynamic one against a static one); sorted by (body, edge).
     const std::vector<EdgeCandidate>& edge_candidates() const { return m_edge_candidates; }
     /// The edges of body b (empty unless edge contacts are on).
     const SurfaceEdges& edges(int b) const { return m_bodies[static_cast<std::size_t>(b)].edges; }

@@ -1,9 +1,10 @@
-// Edge-edge candidates of the narrow phase (docs/method.md, "Edge contacts"): two surface edges
-// whose closest points lie inside both, within the margin, within what their approach closes in
-// the step, or crossed by less than the margin. A vertex-face contact holds a vertex out of a
-// face; two edges that cross between their vertices (a ridge over a ridge, a thin limb across
-// a sharp rim) are seen by none of those, so each active edge of a dynamic body looks for its
-// nearest such edge of its partners.
+// Edge-edge candidates of the narrow phase (docs/method.md, "Edge contacts"): two sharp surface
+// edges (convex, their faces at least the sharp angle apart at rest) whose closest points lie
+// inside both, in front within the margin or what their approach closes in the step (each in
+// the other's Voronoi region), or crossed by less than the margin through a face. A vertex-face
+// contact holds a vertex out of a face; two edges that cross between their vertices (a ridge
+// over a ridge, a blade across a rim) are seen by none of those, so each active sharp edge of a
+// dynamic body looks for its nearest such edge of its partners.
 
 #include <algorithm>
 #include <cmath>
