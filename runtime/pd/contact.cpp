@@ -78,13 +78,14 @@ namespace {
         Eigen::Ref<MatX3>& forces;
         Eigen::Ref<MatX3>& positions;
 
-        /// Contact c's gap, at x + eps f with compliance.
+        /// Contact c's gap, at x + eps (f - preload n) with compliance.
         double gap_of(Index c) const
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
             const double eps = std::max(plane.compliance * diagonal(c), plane.compliance_floor);
             return plane.normal.dot(
-                positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point);
+                       positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point)
+                - eps * plane.preload;
         }
 
         /// Whether contact c pushes or is not clear of its plane.
@@ -116,7 +117,7 @@ namespace {
             const Vec3 f_t = f - f_n * n;
 
             // Normal: the force that closes the gap (or none), Signorini.
-            const double gap = n.dot(x - plane.point);
+            const double gap = n.dot(x - plane.point) - eps * plane.preload;
             const double f_n_new = std::max(0.0, f_n - gap / w);
             // Tangent: the force that cancels the tangential displacement since the step start
             // (stick), projected onto the friction disk |f_t| <= mu f_n (slip).

@@ -47,6 +47,11 @@ struct PlaneCollider {
     /// conditions hold at x + max(compliance D_cc, compliance_floor) f. The contact stage sets
     /// it for self contacts of reduced bodies (docs/method.md, "Self contacts of reduced bodies").
     double compliance_floor = 0.0;
+    /// A normal force (the solve's units, >= 0) the compliance does not act on: the conditions
+    /// hold at x + eps (f - preload n). A contact that pressed with this force in the last step
+    /// and presses alike now rests at its plane, not eps |f| behind it (docs/method.md,
+    /// "Compliance").
+    double preload = 0.0;
 };
 
 /// One candidate contact: a node against a plane.

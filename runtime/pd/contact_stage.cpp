@@ -250,6 +250,7 @@ void ContactStage::begin_step(
             ? data.previous_ground.row(record.warm_node * planes + record.ground_plane)
             : data.previous_pair.row(record.warm_node);
     }
+    set_preloads(ground);
     for (std::size_t b = 0; b < m_data.size(); ++b) {
         BodyData& data = m_data[b];
         if (m_solvers[b] == nullptr)
@@ -264,6 +265,26 @@ void ContactStage::begin_step(
         data.used.clear();
     }
     m_sweeps = 0;
+}
+
+// A contact between bodies takes the normal force of its warm start (the last step's of the same
+// key) as its preload when every body it pushes has compliance_preload.
+void ContactStage::set_preloads(Index first_body_contact)
+{
+    const Index m = static_cast<Index>(m_records.size());
+    for (Index a = first_body_contact; a < m; ++a) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        bool preload = true;
+        for (int s = 0; s < record.num_sides; ++s)
+            preload = preload
+                && m_solvers[static_cast<std::size_t>(
+                                 record.sides[static_cast<std::size_t>(s)].body)]
+                       ->options()
+                       .compliance_preload;
+        PlaneCollider& plane = m_planes[static_cast<std::size_t>(m_pairs[a].plane)];
+        plane.preload
+            = preload ? std::max(0.0, plane.normal.dot(m_forces.row(a).transpose())) : 0.0;
+    }
 }
 
 void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies)

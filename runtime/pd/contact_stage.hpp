@@ -192,6 +192,9 @@ private:
     /// on a full-space body.
     double self_compliance_floor(const Record& record) const;
     void prepare_responses(const std::vector<ContactBodyState>& bodies);
+    /// Each contact between bodies' preload (from contact `first_body_contact` on), from the
+    /// warm start's forces.
+    void set_preloads(Index first_body_contact);
     /// Each stepped body's BodyData::read_rows.
     void find_read_rows();
     /// The side's response (pool column or node response) and the scale of its single term.

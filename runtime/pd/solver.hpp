@@ -97,6 +97,11 @@ struct SolverOptions {
     /// without it, a reduced body pressed by more contacts than it has degrees of freedom takes
     /// unbounded forces (strains of 2 to 10 on stacked 2-handle capsules). Ground planes stay hard.
     double node_contact_compliance = 0.1;
+    /// A contact between bodies that pressed in the last step takes that normal force as its
+    /// preload (PlaneCollider::preload), so that a steady contact rests at its plane rather than
+    /// the compliance's give inside it (docs/method.md, "Compliance"); on a contact only when
+    /// every body it pushes has it.
+    bool compliance_preload = true;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;

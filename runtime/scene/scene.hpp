@@ -58,6 +58,7 @@ struct SolverSettings {
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
     bool self_collision = false; ///< "on" or "off"
     bool edge_contacts = true; ///< "on" or "off": edge-edge contacts besides vertex-face
+    bool compliance_preload = true; ///< "on" or "off" (SolverOptions::compliance_preload)
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

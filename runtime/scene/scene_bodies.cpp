@@ -122,6 +122,10 @@ namespace {
             : AngularMomentum::integrator;
         options.device = scene.solver.device == DeviceMode::cuda ? Device::cuda : Device::cpu;
         options.contact_margin = scene.solver.contact_margin;
+        // Hyper-reduced bodies keep the plain compliance: with the preload they crushed
+        // (docs/method.md, "Compliance").
+        options.compliance_preload
+            = scene.solver.compliance_preload && solver_kind != SolverKind::hyper_reduced;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(
                 PlaneCollider { collider.point, collider.normal, collider.friction });

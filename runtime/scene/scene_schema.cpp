@@ -276,6 +276,13 @@ namespace {
                          "degrees apart at rest) that meet between their vertices, such as a "
                          "ridge across a ridge, besides those of a vertex against a face "
                          "(docs/method.md, \"Edge contacts\")"),
+            enum_key(S::solver, "compliance_preload", &SolverSettings::compliance_preload,
+                { "on", "off" })
+                .set_default("on")
+                .set_doc("a contact between objects that pressed in the last step keeps that "
+                         "force free of the contacts' compliance, so that a steady contact "
+                         "rests at the surface instead of slightly inside it; hyper-reduced "
+                         "objects never use it (docs/method.md, \"Compliance\")"),
             value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
                 .set_default(0.01)
                 .at_least(0)
