@@ -150,8 +150,8 @@ public:
     /// only two sharp edges take a contact in front of each other. Two edges that meet flatter are
     /// held by their surfaces' vertex-face contacts (between vertices held out of the other
     /// surface, two convex edges of exterior angles a and b can cross by at most about a quarter of
-    /// their length times tan(a / 2) + tan(b / 2)); crossed edges are taken whatever their angle.
-    /// On the sample creature 12% of the edges are this sharp.
+    /// their length times tan(a / 2) + tan(b / 2)). On the sample creature 12% of the edges are
+    /// this sharp.
     static constexpr double default_sharp_edge_degrees = 20.0;
 
     /// One candidate per active sharp edge of a dynamic body that has a sharp edge of a partner
@@ -282,8 +282,7 @@ private:
         double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
     /// Whether node `node` of body `body` never pairs with its own face `face`.
     bool own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const;
-    /// m_edge_work: each sharp active edge of a dynamic body once, from the first of its active
-    /// faces.
+    /// m_edge_work: each active sharp edge of a dynamic body.
     void build_edge_work(const std::vector<NarrowPhaseBody>& bodies);
     /// A body's BodyData::active_edges (after file_faces).
     void collect_active_edges(const NarrowPhaseBody& body, BodyData& data, int axis) const;

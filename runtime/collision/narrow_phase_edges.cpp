@@ -9,8 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
-#include <tuple>
 
 #include "runtime/collision/narrow_phase.hpp"
 #include "runtime/collision/triangle_tests.hpp"
@@ -143,14 +141,13 @@ namespace {
         double reach = 0.0; ///< near, plus the edge's and the other body's motion in the step
         double hold = 0.0; ///< max(near, margin): taken whatever the motion
         double lookahead = 0.0;
-        bool front = false; ///< the pair may take a contact in front (both edges are sharp)
     };
 
-    /// The farthest from the query edge that an edge of faces moving as (mean velocity, fastest
-    /// corner's speed, spread about the mean) can take it: the margin, or near plus the
-    /// lookahead times the most their points can approach each other (the speeds' sum, or the
-    /// means' difference plus both spreads), with a relative slack of 1e-9. An edge's points
-    /// move between its ends' velocities, a face's edges' between its corners'.
+    /// The farthest from the query edge that an edge (or every edge of a set) moving as (mean
+    /// velocity, fastest end's speed, spread about the mean) can take it: the margin, or near
+    /// plus the lookahead times the most their points can approach each other (the speeds' sum,
+    /// or the means' difference plus both spreads), with a relative slack of 1e-9 (an edge's
+    /// points move between its ends' velocities).
     double edge_reach(const EdgeQuery& q, const Vec3& mean, double speed, double spread)
     {
         const double approach
@@ -205,9 +202,8 @@ namespace {
         if (side < 0.0)
             normal = -normal;
         const double gap = normal.dot(p - r);
-        // In front, only between sharp edges, and where the two are each other's nearest parts
-        // of the surfaces.
-        if (gap >= 0.0 && !(q.front && regions(p - r)))
+        // In front, only where the two are each other's nearest parts of the surfaces.
+        if (gap >= 0.0 && !regions(p - r))
             return false;
         if (gap < 0.0) {
             // Crossed: within the margin only (further, the edge may be on the far side of a
@@ -354,8 +350,8 @@ bool NarrowPhase::own_edge_excluded(const NarrowPhaseBody& own, int body, int ea
     return true;
 }
 
-// A sharp edge searches its partners' faces within its reach: contacts in front of sharp edges,
-// and crossed ones (the other edges' crossings come from the intersecting triangle pairs).
+// A sharp edge searches its partners' sharp edges within its reach (their grid, each column and
+// edge bounded by its motion): contacts in front, and crossed ones.
 bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, double margin,
     double lookahead, double extra, Scratch& scratch, std::size_t k, EdgeCandidate& best) const
 {
@@ -377,7 +373,6 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
     query.box = own_edge.box;
     query.margin = margin;
     query.lookahead = lookahead;
-    query.front = true;
     bool found = false;
     for (const int bf : data.partners) {
         const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
