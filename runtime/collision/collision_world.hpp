@@ -66,7 +66,7 @@ struct CollisionSettings {
     double margin = 0.01; ///< contact candidate distance, relative to the largest body diagonal
     double friction = 0.3; ///< Coulomb coefficient between bodies
     /// Edge-edge contacts besides the vertex-face ones (docs/method.md, "Edge contacts").
-    bool edges = true;
+    bool edges = false;
 };
 
 /// What the last detect() found and how long each phase took.

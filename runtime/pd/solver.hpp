@@ -100,8 +100,9 @@ struct SolverOptions {
     /// A contact between bodies that pressed in the last step takes that normal force as its
     /// preload (PlaneCollider::preload), so that a steady contact rests at its plane rather than
     /// the compliance's give inside it (docs/method.md, "Compliance"); on a contact only when
-    /// every body it pushes has it.
-    bool compliance_preload = true;
+    /// every body it pushes has it. Off by default: on, full-space creatures_collide with
+    /// angular_momentum "integrator" crushed.
+    bool compliance_preload = false;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;

@@ -57,8 +57,8 @@ struct SolverSettings {
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
     bool self_collision = false; ///< "on" or "off"
-    bool edge_contacts = true; ///< "on" or "off": edge-edge contacts besides vertex-face
-    bool compliance_preload = true; ///< "on" or "off" (SolverOptions::compliance_preload)
+    bool edge_contacts = false; ///< "on" or "off": edge-edge contacts besides vertex-face
+    bool compliance_preload = false; ///< "on" or "off" (SolverOptions::compliance_preload)
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

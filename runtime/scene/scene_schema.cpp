@@ -271,14 +271,14 @@ namespace {
                 .set_doc("collision between non-adjacent medial primitives of one object (with "
                          "collision on)"),
             enum_key(S::solver, "edge_contacts", &SolverSettings::edge_contacts, { "on", "off" })
-                .set_default("on")
+                .set_default("off")
                 .set_doc("contacts between sharp surface edges (convex, their faces at least 20 "
                          "degrees apart at rest) that meet between their vertices, such as a "
                          "ridge across a ridge, besides those of a vertex against a face "
                          "(docs/method.md, \"Edge contacts\")"),
             enum_key(S::solver, "compliance_preload", &SolverSettings::compliance_preload,
                 { "on", "off" })
-                .set_default("on")
+                .set_default("off")
                 .set_doc("a contact between objects that pressed in the last step keeps that "
                          "force free of the contacts' compliance, so that a steady contact "
                          "rests at the surface instead of slightly inside it; hyper-reduced "

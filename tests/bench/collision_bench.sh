@@ -15,7 +15,7 @@ build="${1:-$root/build}"
 steps="${2:-25}"
 repeats="${3:-200}"
 rounds="${4:-5}"
-edges="${5:-on}" # solver.edge_contacts: on or off
+edges="${5:-off}" # solver.edge_contacts: on or off
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 

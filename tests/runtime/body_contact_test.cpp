@@ -542,7 +542,7 @@ namespace {
     // where claimed, no triangle pair of two
     // bodies (or of non-adjacent parts of one) intersects in the last 10 frames. Not yet held,
     // so not here (docs/method.md, "Contact"): creatures_collide's impact sinks a vertex 8.2 mm
-    // (0.63%), and creatures_collide, drop_on_pile and creature_stack keep 70-310 intersecting
+    // (0.63%), and creatures_collide, drop_on_pile and creature_stack keep 130-440 intersecting
     // pairs at rest (vertex penetration there under 1.3 mm); the curled limb of
     // limb_self_contact keeps 49-57 self-intersecting pairs at its end (self penetration
     // 0.65 mm).
