@@ -236,7 +236,9 @@ void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int ax
         }
     }
     if (body.velocities == nullptr || n == 0) {
-        summarize_columns(data);
+        summarize_columns(
+            data.grid, [&](std::size_t k) -> const BodyData::FaceMotion& { return data.motion[k]; },
+            data.columns);
         return;
     }
     for (std::size_t k = 0; k < n; ++k) {
@@ -256,30 +258,9 @@ void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int ax
     for (const BodyData::FaceMotion& motion : data.motion)
         data.velocity_spread = std::max(
             data.velocity_spread, (motion.mean - data.mean_velocity).norm() + motion.spread);
-    summarize_columns(data);
-}
-
-void NarrowPhase::summarize_columns(BodyData& data)
-{
-    const int columns = data.grid.num_columns();
-    data.columns.resize(static_cast<std::size_t>(columns));
-    for (int c = 0; c < columns; ++c) {
-        BodyData::ColumnMotion& column = data.columns[static_cast<std::size_t>(c)];
-        const std::size_t begin = static_cast<std::size_t>(data.grid.column_begin(c));
-        const std::size_t end = static_cast<std::size_t>(data.grid.column_begin(c + 1));
-        column = BodyData::ColumnMotion {};
-        if (begin == end)
-            continue;
-        for (std::size_t k = begin; k < end; ++k) {
-            column.box.extend(data.grid.at(k).box);
-            column.motion.speed = std::max(column.motion.speed, data.motion[k].speed);
-            column.motion.mean += data.motion[k].mean;
-        }
-        column.motion.mean /= static_cast<double>(end - begin);
-        for (std::size_t k = begin; k < end; ++k)
-            column.motion.spread = std::max(column.motion.spread,
-                (data.motion[k].mean - column.motion.mean).norm() + data.motion[k].spread);
-    }
+    summarize_columns(
+        data.grid, [&](std::size_t k) -> const BodyData::FaceMotion& { return data.motion[k]; },
+        data.columns);
 }
 
 bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const

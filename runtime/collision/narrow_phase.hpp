@@ -33,6 +33,7 @@
 // are sorted by a total order, so they do not depend on the thread count. Buffers are members,
 // reused: no allocation once warm.
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -226,9 +227,7 @@ private:
             int edge = 0;
             Vec3 x0 = Vec3::Zero(), x1 = Vec3::Zero();
             Vec3 v0 = Vec3::Zero(), v1 = Vec3::Zero();
-            Vec3 mean = Vec3::Zero();
-            double spread = 0.0;
-            double speed = 0.0;
+            FaceMotion motion; ///< of its two ends
             Box3 box;
             Vec3 outward = Vec3::Zero();
         };
@@ -265,8 +264,12 @@ private:
     void choose_sweep_axis();
     /// Files a body's active triangles in its grid along `axis`, with their corners' motion.
     static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
-    /// BodyData::columns, from its grid and its faces' motion.
-    static void summarize_columns(BodyData& data);
+    /// Per column of `grid`: the box of its items and their motion together (the fastest, the
+    /// mean of their means, and how far a velocity is from it at most), with motion_at(k) the
+    /// motion of the item at position k.
+    template <class MotionAt>
+    static void summarize_columns(const FaceGrid& grid, const MotionAt& motion_at,
+        std::vector<BodyData::ColumnMotion>& columns);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
@@ -320,5 +323,29 @@ private:
     long m_triangle_tests = 0;
     long m_node_tests = 0;
 };
+
+template <class MotionAt>
+void NarrowPhase::summarize_columns(
+    const FaceGrid& grid, const MotionAt& motion_at, std::vector<BodyData::ColumnMotion>& columns)
+{
+    columns.resize(static_cast<std::size_t>(grid.num_columns()));
+    for (int c = 0; c < grid.num_columns(); ++c) {
+        BodyData::ColumnMotion& column = columns[static_cast<std::size_t>(c)];
+        const std::size_t begin = static_cast<std::size_t>(grid.column_begin(c));
+        const std::size_t end = static_cast<std::size_t>(grid.column_begin(c + 1));
+        column = BodyData::ColumnMotion {};
+        if (begin == end)
+            continue;
+        for (std::size_t k = begin; k < end; ++k) {
+            column.box.extend(grid.at(k).box);
+            column.motion.speed = std::max(column.motion.speed, motion_at(k).speed);
+            column.motion.mean += motion_at(k).mean;
+        }
+        column.motion.mean /= static_cast<double>(end - begin);
+        for (std::size_t k = begin; k < end; ++k)
+            column.motion.spread = std::max(column.motion.spread,
+                (motion_at(k).mean - column.motion.mean).norm() + motion_at(k).spread);
+    }
+}
 
 } // namespace mat

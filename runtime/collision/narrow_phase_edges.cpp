@@ -274,9 +274,9 @@ void NarrowPhase::collect_active_edges(const NarrowPhaseBody& body, BodyData& da
         item.x1 = vertex(body, ends[1]);
         item.v0 = vertex_velocity(body, ends[0]);
         item.v1 = vertex_velocity(body, ends[1]);
-        item.mean = 0.5 * (item.v0 + item.v1);
-        item.spread = 0.5 * (item.v1 - item.v0).norm();
-        item.speed = std::max(item.v0.norm(), item.v1.norm());
+        item.motion.mean = 0.5 * (item.v0 + item.v1);
+        item.motion.spread = 0.5 * (item.v1 - item.v0).norm();
+        item.motion.speed = std::max(item.v0.norm(), item.v1.norm());
         item.box = Box3(item.x0.cwiseMin(item.x1), item.x0.cwiseMax(item.x1));
         item.outward = edge_outward(body, data.edges.faces[static_cast<std::size_t>(e)]);
         data.edge_grid.items.push_back({ item.box, static_cast<int>(data.active_edges.size()), 0 });
@@ -285,29 +285,12 @@ void NarrowPhase::collect_active_edges(const NarrowPhaseBody& body, BodyData& da
     data.edge_grid.build(axis);
     // Each column's box and motion: its edges' fastest end, the mean of their means, and how far
     // an end's velocity is from it at most.
-    const int columns = data.edge_grid.num_columns();
-    data.edge_columns.resize(static_cast<std::size_t>(columns));
-    for (int c = 0; c < columns; ++c) {
-        BodyData::ColumnMotion& column = data.edge_columns[static_cast<std::size_t>(c)];
-        column = BodyData::ColumnMotion {};
-        const int begin = data.edge_grid.column_begin(c);
-        const int end = data.edge_grid.column_begin(c + 1);
-        if (begin == end)
-            continue;
-        const auto edge_at = [&](int k) -> const BodyData::ActiveEdge& {
-            return data.active_edges[static_cast<std::size_t>(
-                data.edge_grid.at(static_cast<std::size_t>(k)).index)];
-        };
-        for (int k = begin; k < end; ++k) {
-            column.box.extend(edge_at(k).box);
-            column.motion.speed = std::max(column.motion.speed, edge_at(k).speed);
-            column.motion.mean += edge_at(k).mean;
-        }
-        column.motion.mean /= static_cast<double>(end - begin);
-        for (int k = begin; k < end; ++k)
-            column.motion.spread = std::max(column.motion.spread,
-                (edge_at(k).mean - column.motion.mean).norm() + edge_at(k).spread);
-    }
+    summarize_columns(
+        data.edge_grid,
+        [&](std::size_t k) -> const BodyData::FaceMotion& {
+            return data.active_edges[static_cast<std::size_t>(data.edge_grid.at(k).index)].motion;
+        },
+        data.edge_columns);
 }
 
 void NarrowPhase::build_edge_work(const std::vector<NarrowPhaseBody>& bodies)
@@ -367,9 +350,9 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
     query.x1 = own_edge.x1;
     query.v0 = own_edge.v0;
     query.v1 = own_edge.v1;
-    query.mean = own_edge.mean;
-    query.spread = own_edge.spread;
-    query.speed = own_edge.speed;
+    query.mean = own_edge.motion.mean;
+    query.spread = own_edge.motion.spread;
+    query.speed = own_edge.motion.speed;
     query.box = own_edge.box;
     query.margin = margin;
     query.lookahead = lookahead;
@@ -393,7 +376,7 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
             // The box's distance is at most the edges' (their closest points' distance, the
             // gap's size): beyond the best hit so far, it loses.
             if ((found && gap > (1.0 + 1e-9) * std::abs(best.distance))
-                || gap > edge_reach(query, edge.mean, edge.speed, edge.spread))
+                || gap > edge_reach(query, edge.motion.mean, edge.motion.speed, edge.motion.spread))
                 return;
             if (bf == be && (eb <= ea || own_edge_excluded(own, be, ea, eb)))
                 return;
