@@ -423,7 +423,14 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
         add_vertex_terms(hit.body, hit.node, 1.0);
         for (int k = 0; k < 3; ++k)
             add_vertex_terms(hit.other_body, face(k), -hit.barycentric(k));
-        close_contact(hit.normal, hit.node, hit.body == hit.other_body);
+        // The face's corners, so that the contact stage can turn the plane with the iterate.
+        const int face_first = static_cast<int>(m_contacts.face_terms.size());
+        const SurfaceEmbedding& surface = other.model->surface();
+        for (int k = 0; k < 3; ++k)
+            for (int c = 0; c < BodyContacts::face_corner_terms; ++c)
+                m_contacts.face_terms.push_back(ContactTerm {
+                    hit.other_body, surface.nodes()(face(k), c), surface.weights()(face(k), c) });
+        close_contact(hit.normal, hit.node, hit.body == hit.other_body, face_first);
         m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
     }
     // One per surface edge that has one (the nearest edge crossing it), sorted by (body, edge):
@@ -454,13 +461,13 @@ void CollisionWorld::add_vertex_terms(int body, int vertex, double weight)
     }
 }
 
-void CollisionWorld::close_contact(const Vec3& normal, int key, bool is_self)
+void CollisionWorld::close_contact(const Vec3& normal, int key, bool is_self, int face)
 {
     PlaneCollider plane;
     plane.point = Vec3::Zero();
     plane.normal = normal;
     plane.friction = m_settings.friction;
-    m_contacts.close(plane, key, is_self);
+    m_contacts.close(plane, key, is_self, face);
     ++m_report.contacts;
 }
 

@@ -208,8 +208,9 @@ private:
     /// Appends a surface vertex's terms (its embedding's nodes) times `weight` to the contact
     /// being built.
     void add_vertex_terms(int body, int vertex, double weight);
-    /// Closes the contact being built, against the plane of `normal` through 0.
-    void close_contact(const Vec3& normal, int key, bool is_self);
+    /// Closes the contact being built, against the plane of `normal` through 0; `face`: the
+    /// first of its face's corner terms (BodyContacts::faces), or -1.
+    void close_contact(const Vec3& normal, int key, bool is_self, int face = -1);
     /// Body b's faces near each vertex at rest, within `radius` (self collision skips them).
     void find_rest_neighbours(std::size_t b, double radius);
 

@@ -37,6 +37,8 @@ public:
     virtual void direction(const int* nodes, const double* weights, int count,
         std::vector<int>& index, std::vector<double>& value, Vec3& offset,
         std::vector<int>& slots) const = 0;
+    /// Node i's position in the kept solution.
+    virtual Vec3 node_position(int node) const = 0;
     /// The point of a direction in the kept solution.
     virtual Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const = 0;

@@ -148,6 +148,7 @@ void ContactStage::add_body_contacts(
         }
         if (record.num_sides == 0)
             continue; // between constant bodies
+        add_face(record, bodies, contacts, c);
         if (static_cast<std::size_t>(c) < contacts.self.size()
             && contacts.self[static_cast<std::size_t>(c)])
             plane.compliance_floor = self_compliance_floor(record);
@@ -180,6 +181,35 @@ void ContactStage::add_body_contacts(
     }
 }
 
+// A plane of a vertex against a face of a stepped body whose solver has planes_follow_iterate
+// keeps the face's corners (docs/method.md, "Planes that follow the iterate").
+void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>& bodies,
+    const BodyContacts& contacts, Index c)
+{
+    if (static_cast<std::size_t>(c) >= contacts.faces.size())
+        return;
+    const int first = contacts.faces[static_cast<std::size_t>(c)];
+    if (first < 0)
+        return;
+    constexpr int count = 3 * BodyContacts::face_corner_terms;
+    MAT_CHECK(first + count <= static_cast<int>(contacts.face_terms.size()),
+        "contact stage: contact {} names face terms past the end", c);
+    const int body = contacts.face_terms[static_cast<std::size_t>(first)].body;
+    MAT_CHECK(body >= 0 && body < static_cast<int>(bodies.size()),
+        "contact stage: contact {} names body {} of {}", c, body, bodies.size());
+    const PdSolver* solver = bodies[static_cast<std::size_t>(body)].solver;
+    if (solver == nullptr || !solver->options().planes_follow_iterate)
+        return;
+    record.face_body = body;
+    record.face = static_cast<int>(m_face_node.size());
+    for (int t = first; t < first + count; ++t) {
+        const ContactTerm& term = contacts.face_terms[static_cast<std::size_t>(t)];
+        MAT_CHECK(term.body == body, "contact stage: contact {}'s face spans two bodies", c);
+        m_face_node.push_back(term.node);
+        m_face_weight.push_back(term.weight);
+    }
+}
+
 void ContactStage::begin_step(
     const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts)
 {
@@ -188,6 +218,8 @@ void ContactStage::begin_step(
     m_records.clear();
     m_term_node.clear();
     m_term_weight.clear();
+    m_face_node.clear();
+    m_face_weight.clear();
     m_planes.clear();
     m_pairs.clear();
     m_settings = ContactSettings {};
@@ -389,6 +421,8 @@ void ContactStage::solve(bool last)
     for (std::size_t b = 0; b < m_data.size(); ++b)
         if (m_solvers[b] != nullptr)
             m_solvers[b]->contact_response().add_displacement(m_data[b].displacement);
+    if (!last)
+        turn_planes();
     // The solve's time goes to the stepped bodies in equal shares.
     int stepped = 0;
     for (const PdSolver* solver : m_solvers)

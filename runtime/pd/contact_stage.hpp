@@ -57,6 +57,14 @@ struct BodyContacts {
     std::vector<int> keys;
     /// Per constraint, whether it is a self contact (two parts of one body).
     std::vector<char> self;
+    /// Per constraint, the first of its face's corner terms in `face_terms` (-1: none): the
+    /// surface triangle whose outward normal its plane's normal is, as its three corners, each
+    /// face_corner_terms terms on the triangle's body (weight 0 pads), in the triangle's order.
+    /// The contact stage turns the plane with the iterate from them (docs/method.md, "Planes
+    /// that follow the iterate").
+    std::vector<int> faces;
+    std::vector<ContactTerm> face_terms;
+    static constexpr int face_corner_terms = 4;
 
     void clear()
     {
@@ -65,6 +73,8 @@ struct BodyContacts {
         planes.clear();
         keys.clear();
         self.clear();
+        faces.clear();
+        face_terms.clear();
     }
     Index size() const { return static_cast<Index>(planes.size()); }
     /// The body of contact c's first term (the node a collision contact is for).
@@ -78,12 +88,14 @@ struct BodyContacts {
         return count;
     }
     /// Closes the constraint made of the terms added since the last one.
-    void close(const PlaneCollider& plane, int key = -1, bool is_self = false)
+    /// `face`: the first of its face's 3 x face_corner_terms terms in face_terms, or -1.
+    void close(const PlaneCollider& plane, int key = -1, bool is_self = false, int face = -1)
     {
         offsets.push_back(static_cast<int>(terms.size()));
         planes.push_back(plane);
         keys.push_back(key);
         self.push_back(is_self ? 1 : 0);
+        faces.push_back(face);
     }
 };
 
@@ -153,6 +165,10 @@ private:
         int warm_node = 0;
         int ground_plane = -1; ///< a ground contact's plane in its body's solver, else -1
         Vec3 start = Vec3::Zero(); ///< the relative point at the step start (see add_body_contacts)
+        /// A plane that follows the iterate: its face's body and the first of its corners'
+        /// terms in m_face_node / m_face_weight (-1: a fixed plane).
+        int face_body = -1;
+        int face = -1;
     };
     struct BodyData {
         bool initialized = false;
@@ -188,6 +204,9 @@ private:
     void add_body_contacts(
         const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
     void add_side(Record& record, int body, int first, int count);
+    /// Contact c's face (BodyContacts::faces) into `record`, if its plane follows the iterate.
+    void add_face(Record& record, const std::vector<ContactBodyState>& bodies,
+        const BodyContacts& contacts, Index c);
     /// The compliance floor of a self contact: sum over its terms of w^2 / A_ii on its body, 0
     /// on a full-space body.
     double self_compliance_floor(const Record& record) const;
@@ -215,6 +234,10 @@ private:
     Vec3 side_position(const Side& side) const;
     /// m_free: each contact's point in its bodies' kept solutions (in parallel for many).
     void compute_free_positions();
+    /// After a solve before the step's last: each plane that follows the iterate, of a contact
+    /// that has been in a working set, takes its face's outward normal in the kept solutions
+    /// (the iterate's positions; docs/method.md, "Planes that follow the iterate").
+    void turn_planes();
     /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
     double coupling_between(Index c, Index d);
     // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).
@@ -232,6 +255,8 @@ private:
     std::vector<Record> m_records;
     std::vector<int> m_term_node;
     std::vector<double> m_term_weight;
+    std::vector<int> m_face_node; ///< the faces' corner terms (Record::face)
+    std::vector<double> m_face_weight;
     std::vector<int> m_dir_index;
     std::vector<double> m_dir_value;
     std::vector<PlaneCollider> m_planes;

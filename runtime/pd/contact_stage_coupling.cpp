@@ -3,6 +3,7 @@
 // positions of all contacts through each body's summed response.
 
 #include <algorithm>
+#include <array>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -73,6 +74,33 @@ void ContactStage::compute_free_positions()
         for (int s = 0; s < record.num_sides; ++s)
             x += side_position(record.sides[static_cast<std::size_t>(s)]);
         m_free.row(a) = x.transpose();
+    });
+}
+
+void ContactStage::turn_planes()
+{
+    for_each_index(static_cast<Index>(m_rows.size()), [&](Index row) {
+        const Index a = m_rows[static_cast<std::size_t>(row)];
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        if (record.face < 0)
+            return;
+        const ContactResponse& step
+            = m_solvers[static_cast<std::size_t>(record.face_body)]->contact_response();
+        std::array<Vec3, 3> corner;
+        int t = record.face;
+        for (Vec3& point : corner) {
+            point.setZero();
+            for (int k = 0; k < BodyContacts::face_corner_terms; ++k, ++t) {
+                const double w = m_face_weight[static_cast<std::size_t>(t)];
+                if (w != 0.0)
+                    point += w * step.node_position(m_face_node[static_cast<std::size_t>(t)]);
+            }
+        }
+        const Vec3 normal = (corner[1] - corner[0]).cross(corner[2] - corner[0]);
+        const double length = normal.norm();
+        if (length > 0.0)
+            m_planes[static_cast<std::size_t>(m_pairs[static_cast<std::size_t>(a)].plane)].normal
+                = normal / length;
     });
 }
 

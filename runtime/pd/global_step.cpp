@@ -158,6 +158,14 @@ void ReducedGlobalStep::direction(const int* nodes, const double* weights, int c
         slots[index[i]] = -1;
 }
 
+Vec3 ReducedGlobalStep::node_position(int node) const
+{
+    Eigen::RowVector3d x = m_model.rest_positions().row(node);
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+        x += it.value() * m_q.row(it.index());
+    return x.transpose();
+}
+
 Vec3 ReducedGlobalStep::position(
     const int* index, const double* value, int count, const Vec3& offset) const
 {

@@ -93,6 +93,7 @@ public:
     const MatX* reduced_coordinates() const override { return &m_q; }
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
+    Vec3 node_position(int node) const override;
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
@@ -139,6 +140,7 @@ public:
     void add_displacement(const Eigen::Ref<const MatX3>& displacement) override;
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
+    Vec3 node_position(int node) const override { return m_x.row(node).transpose(); }
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;

@@ -103,6 +103,10 @@ struct SolverOptions {
     /// every body it pushes has it. Off by default: on, full-space creatures_collide with
     /// angular_momentum "integrator" crushed.
     bool compliance_preload = false;
+    /// A contact of a vertex against a face of this body (stepped) takes the face's outward
+    /// normal at each iteration's positions, not only at the step's start (docs/method.md,
+    /// "Planes that follow the iterate").
+    bool planes_follow_iterate = true;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;

@@ -59,6 +59,8 @@ struct SolverSettings {
     bool self_collision = false; ///< "on" or "off"
     bool edge_contacts = false; ///< "on" or "off": edge-edge contacts besides vertex-face
     bool compliance_preload = false; ///< "on" or "off" (SolverOptions::compliance_preload)
+    /// "iterate" or "step" (SolverOptions::planes_follow_iterate)
+    bool planes_follow_iterate = true;
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

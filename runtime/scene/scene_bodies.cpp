@@ -126,6 +126,7 @@ namespace {
         // (docs/method.md, "Compliance").
         options.compliance_preload
             = scene.solver.compliance_preload && solver_kind != SolverKind::hyper_reduced;
+        options.planes_follow_iterate = scene.solver.planes_follow_iterate;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(
                 PlaneCollider { collider.point, collider.normal, collider.friction });

@@ -283,6 +283,12 @@ namespace {
                          "force free of the contacts' compliance, so that a steady contact "
                          "rests at the surface instead of slightly inside it; hyper-reduced "
                          "objects never use it (docs/method.md, \"Compliance\")"),
+            enum_key(S::solver, "contact_normals", &SolverSettings::planes_follow_iterate,
+                { "iterate", "step" })
+                .set_default("iterate")
+                .set_doc("a contact of a vertex against a face of a moving object takes the "
+                         "face's normal at each iteration's positions (iterate) or at the step's "
+                         "start (step) (docs/method.md, \"Planes that follow the iterate\")"),
             value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
                 .set_default(0.01)
                 .at_least(0)
