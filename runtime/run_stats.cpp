@@ -54,11 +54,7 @@ namespace {
         into.contacts = std::max(into.contacts, step.contacts);
         into.edge_contacts = std::max(into.edge_contacts, step.edge_contacts);
         into.max_penetration = std::max(into.max_penetration, step.max_penetration);
-        into.bounds_seconds += step.bounds_seconds;
-        into.hash_seconds += step.hash_seconds;
-        into.primitive_seconds += step.primitive_seconds;
-        into.triangle_seconds += step.triangle_seconds;
-        into.response_seconds += step.response_seconds;
+        into.add_seconds(step);
     }
 
     /// Seconds per collision phase times `scale`.

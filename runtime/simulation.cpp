@@ -222,6 +222,21 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
     // The last iteration: the scene's count, or (time.tolerance) the one after every body's
     // iterate is estimated within the tolerance of its converged step.
+    int detect_after = -1; // iterations after which the contacts are found again (-1: never)
+    if (m_collision && m_scene.solver.detect_in_step) {
+        detect_after = 0;
+        for (const std::size_t b : m_stepped) {
+            const SolverOptions& options = m_bodies[b].solver->options();
+            // Not where the step is not the CPU's plain iteration, nor with a hyper-reduced
+            // body (its local stage does not read the iterate): drop_on_pile crushed with it
+            // (docs/method.md, "Contacts found again during the step").
+            if (options.device != Device::cpu || options.acceleration != Acceleration::none
+                || !m_bodies[b].solver->local_stage().reads_iterate())
+                detect_after = -1;
+            else if (detect_after >= 0)
+                detect_after = std::max(detect_after, options.iterations / 2);
+        }
+    }
     bool last = false;
     for (int iteration = 0; !last; ++iteration) {
         last = true;
@@ -232,6 +247,8 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
         m_contact_stage->solve(last);
         for (const std::size_t b : m_stepped)
             m_bodies[b].solver->finish_iteration(iteration, last);
+        if (!last && iteration + 1 == detect_after)
+            detect_in_step(views);
     }
     m_contact_stage->end_step();
     for (const std::size_t b : m_stepped) {
@@ -242,6 +259,31 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
         body.moved = true;
         update_sleep(body, pins_moved[b] != 0);
     }
+}
+
+// The states at the iterate: a stepped body's positions and q after the last iteration, the
+// others' as at the step start (a kinematic body is at its end-of-step place already); no
+// velocities, so no speculative reach (the iterate is the step's end as far as it is known).
+void Simulation::detect_in_step(const std::vector<ContactBodyState>& views)
+{
+    std::vector<CollisionBodyState>& states = m_states;
+    states.assign(m_bodies.size(), CollisionBodyState {});
+    for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+        Body& body = m_bodies[b];
+        const bool stepped = views[b].solver != nullptr;
+        states[b].is_static = body.is_static || body.asleep;
+        states[b].reuse_bounds = !stepped;
+        if (stepped) {
+            body.solver->sync_iterate_positions();
+            states[b].nodes = &body.next.positions;
+            states[b].q = body.solver->reduced_coordinates();
+        } else {
+            states[b].nodes = &body.state.positions;
+        }
+    }
+    const BodyContacts& contacts = m_collision->detect_in_step(states);
+    m_contact_stage->end_step();
+    m_contact_stage->begin_step(views, contacts, true);
 }
 
 } // namespace mat

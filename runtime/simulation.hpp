@@ -97,6 +97,9 @@ private:
     double motion_bound(const Body& body) const;
     /// The collision world's contacts at the start of the step (wakes the touched sleepers).
     const BodyContacts& detect_contacts();
+    /// Halfway through a step's iterations (solver.detect_in_step): the contacts found again at
+    /// the iterate, and the contact stage begun again with them (its forces kept by key).
+    void detect_in_step(const std::vector<ContactBodyState>& views);
     /// Steps the awake dynamic bodies together with the contact stage.
     void step_bodies(const BodyContacts& contacts, const std::vector<char>& pins_moved);
 

@@ -216,6 +216,27 @@ const BodyContacts& CollisionWorld::detect(const std::vector<CollisionBodyState>
     return find_contacts(states);
 }
 
+const BodyContacts& CollisionWorld::detect_in_step(const std::vector<CollisionBodyState>& states)
+{
+    const CollisionReport start = m_report;
+    m_kept_intersecting.swap(m_intersecting);
+    m_redetected.assign(m_bodies.size(), 0);
+    for (std::size_t b = 0; b < m_bodies.size(); ++b)
+        if (!(states[b].reuse_bounds && m_bodies[b].has_bounds)) {
+            m_redetected[b] = 1;
+            m_bodies[b].step_surface = m_bodies[b].surface;
+        }
+    detect(states);
+    for (std::size_t b = 0; b < m_bodies.size(); ++b)
+        if (m_redetected[b])
+            m_bodies[b].surface.swap(m_bodies[b].step_surface);
+    m_intersecting.swap(m_kept_intersecting);
+    const CollisionReport now = m_report;
+    m_report = start;
+    m_report.add_seconds(now);
+    return m_contacts;
+}
+
 void CollisionWorld::update_bounds(const std::vector<CollisionBodyState>& states)
 {
     MAT_CHECK(states.size() == m_bodies.size(), "collision: {} states for {} bodies", states.size(),

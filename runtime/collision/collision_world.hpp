@@ -88,6 +88,15 @@ struct CollisionReport {
     double primitive_seconds = 0.0; ///< exact primitive tests
     double triangle_seconds = 0.0; ///< narrow phase: triangle-triangle and node-triangle tests
     double response_seconds = 0.0; ///< merge into one contact per node with its plane
+    /// Adds `other`'s seconds, phase by phase.
+    void add_seconds(const CollisionReport& other)
+    {
+        bounds_seconds += other.bounds_seconds;
+        hash_seconds += other.hash_seconds;
+        primitive_seconds += other.primitive_seconds;
+        triangle_seconds += other.triangle_seconds;
+        response_seconds += other.response_seconds;
+    }
 };
 
 /// One body as the collision world sees it, in world coordinates.
@@ -141,6 +150,10 @@ public:
     /// world coordinates (runtime/pd/contact_stage.hpp); the key of a contact is its vertex.
     /// Sorted by (body, vertex).
     const BodyContacts& detect(const std::vector<CollisionBodyState>& states);
+    /// detect() during a step (the states at an iterate, no velocities): last_report(),
+    /// intersecting_pairs() and world_surface() stay the step start's (what --check-collisions
+    /// compares), with this detection's seconds added to the report's phases.
+    const BodyContacts& detect_in_step(const std::vector<CollisionBodyState>& states);
 
     /// The same in two parts: phase 1 (bounds and world boxes; body_box() then holds each
     /// body's box), then phases 2 to 6 on the same bodies (their is_static may have changed in
@@ -174,6 +187,8 @@ private:
         }
         std::shared_ptr<const BodyModel> model;
         MedialBounds bounds;
+        /// detect_in_step's copy of the step start's surface (world coordinates).
+        MatX3 step_surface;
         /// Surface vertices grouped by their primitive (CSR): the contact points.
         VecXi vertex_indptr; ///< #P + 1
         VecXi vertex_list;
@@ -231,6 +246,8 @@ private:
     BodyContacts m_contacts;
     double m_margin = 0.0; ///< absolute, from the last update_bounds
     double m_lookahead = 0.0;
+    std::vector<FacePair> m_kept_intersecting; ///< detect_in_step's scratch
+    std::vector<char> m_redetected; ///< detect_in_step's: per body, updated by it
     double m_extra = 0.0;
     CollisionReport m_report;
 };

@@ -211,8 +211,9 @@ void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>&
 }
 
 void ContactStage::begin_step(
-    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts)
+    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts, bool at_iterate)
 {
+    m_at_iterate = at_iterate;
     MAT_CHECK(bodies.size() == m_data.size(), "contact stage: {} bodies for {}", bodies.size(),
         m_data.size());
     m_records.clear();
@@ -484,8 +485,10 @@ void ContactStage::end_step()
                 && m_forces.row(a).squaredNorm() > 0.0)
                 solver.report().world_contact = true;
             // Its moment at the start of the step, about the origin
-            // (runtime/pd/angular_momentum.hpp).
-            const MatX3& begin = solver.step_start_positions();
+            // (runtime/pd/angular_momentum.hpp), where its two points are a closest pair along
+            // it; for contacts found at an iterate, at the step's end.
+            const MatX3& begin
+                = m_at_iterate ? solver.step_positions() : solver.step_start_positions();
             for (int k = side.first; k < side.first + side.count; ++k) {
                 const Index node = m_term_node[static_cast<std::size_t>(k)];
                 solver.report().contact_moment += begin.row(node).transpose().cross(

@@ -126,7 +126,11 @@ public:
     /// within its contact margin of a plane of its solver at the start of the step or at the
     /// inertia target) and `contacts`, then each body's responses and the warm start (the last
     /// step's force of the same ground pair, or of a contact at the same first node).
-    void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
+    /// `at_iterate`: the contacts were found at an iterate during the step (the two points of a
+    /// contact are then a closest pair there, not at the step start: their impulses' moments are
+    /// taken at the step's end, see end_step()).
+    void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts,
+        bool at_iterate = false);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
     /// their displacements to the bodies' global steps. `last`: the step's last iteration
     /// (before it, a solve with body contacts stops after ContactSettings::early_sweeps).
@@ -273,6 +277,7 @@ private:
     ContactScratch m_scratch;
     ContactSettings m_settings;
     int m_sweeps = 0;
+    bool m_at_iterate = false; ///< begin_step's
     Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
 };
 

@@ -61,6 +61,9 @@ struct SolverSettings {
     bool compliance_preload = false; ///< "on" or "off" (SolverOptions::compliance_preload)
     /// "iterate" or "step" (SolverOptions::planes_follow_iterate)
     bool planes_follow_iterate = true;
+    /// "on" or "off": contacts found again at the iterate halfway through a step (not in a step
+    /// with a hyper-reduced object)
+    bool detect_in_step = false;
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

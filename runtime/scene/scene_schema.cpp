@@ -289,6 +289,13 @@ namespace {
                 .set_doc("a contact of a vertex against a face of a moving object takes the "
                          "face's normal at each iteration's positions (iterate) or at the step's "
                          "start (step) (docs/method.md, \"Planes that follow the iterate\")"),
+            enum_key(S::solver, "detect_in_step", &SolverSettings::detect_in_step, { "on", "off" })
+                .set_default("off")
+                .set_doc("the contacts between objects are found again at the iterate halfway "
+                         "through each step's iterations, besides at its start, so that a "
+                         "vertex pushed against another surface during the step gets a contact; "
+                         "not in steps with hyper-reduced objects, which crushed with it "
+                         "(docs/method.md, \"Contacts found again during the step\")"),
             value_key(S::solver, "collision_margin", T::number, &SolverSettings::collision_margin)
                 .set_default(0.01)
                 .at_least(0)
