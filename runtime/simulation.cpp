@@ -220,8 +220,6 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     Timer timer;
     m_contact_stage->begin_step(views, contacts);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
-    // The last iteration: the scene's count, or (time.tolerance) the one after every body's
-    // iterate is estimated within the tolerance of its converged step.
     int detect_after = -1; // iterations after which the contacts are found again (-1: never)
     if (m_collision && m_scene.solver.detect_in_step) {
         detect_after = 0;
@@ -237,6 +235,8 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
                 detect_after = std::max(detect_after, options.iterations / 2);
         }
     }
+    // The last iteration: the scene's count, or (time.tolerance) the one after every body's
+    // iterate is estimated within the tolerance of its converged step.
     bool last = false;
     for (int iteration = 0; !last; ++iteration) {
         last = true;
@@ -282,8 +282,12 @@ void Simulation::detect_in_step(const std::vector<ContactBodyState>& views)
         }
     }
     const BodyContacts& contacts = m_collision->detect_in_step(states);
+    Timer timer;
     m_contact_stage->end_step();
     m_contact_stage->begin_step(views, contacts, true);
+    const double share = timer.seconds() / static_cast<double>(m_stepped.size());
+    for (const std::size_t b : m_stepped)
+        m_bodies[b].solver->add_contact_seconds(share);
 }
 
 } // namespace mat

@@ -297,7 +297,8 @@ void ContactStage::begin_step(
         }
         data.used.clear();
     }
-    m_sweeps = 0;
+    if (!at_iterate)
+        m_sweeps = 0; // a step's sweeps count over both of its contact sets
 }
 
 // A contact between bodies takes the normal force of its warm start (the last step's of the same

@@ -128,7 +128,7 @@ public:
     /// step's force of the same ground pair, or of a contact at the same first node).
     /// `at_iterate`: the contacts were found at an iterate during the step (the two points of a
     /// contact are then a closest pair there, not at the step start: their impulses' moments are
-    /// taken at the step's end, see end_step()).
+    /// taken at the step's end, see end_step()); the step's sweeps keep counting.
     void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts,
         bool at_iterate = false);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
