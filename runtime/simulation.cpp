@@ -274,7 +274,8 @@ void Simulation::detect_in_step(const std::vector<ContactBodyState>& views)
         states[b].is_static = body.is_static || body.asleep;
         states[b].reuse_bounds = !stepped;
         if (stepped) {
-            body.solver->sync_iterate_positions();
+            // The iterate's positions: step_bodies runs this only for local stages that read
+            // them, so finish_iteration has written them.
             states[b].nodes = &body.next.positions;
             states[b].q = body.solver->reduced_coordinates();
         } else {

@@ -271,13 +271,6 @@ public:
     const MatX3& inertia_target() const { return m_inertia; }
     /// The step's positions  n x 3 (after the last finish_iteration, the step's result).
     const MatX3& step_positions() const { return m_out->positions; }
-    /// Brings step_positions() to the iterate of the last finish_iteration (a local stage that
-    /// reads it has them already; the others reconstruct them here).
-    void sync_iterate_positions()
-    {
-        if (!m_local->reads_iterate())
-            m_global->positions(m_out->positions, m_timings);
-    }
     /// The step's start positions  n x 3 (on the host; between begin_step and end_step).
     const MatX3& step_start_positions() const { return m_in->positions; }
     StepReport& report() { return m_report; }
