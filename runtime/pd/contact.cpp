@@ -250,6 +250,8 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
         }
         for (Index k = 0; k < size; ++k)
             positions.row(working[static_cast<std::size_t>(k)]) = scratch.working_positions.row(k);
+        if (sweep >= settings.max_sweeps && !settings.outside_positions)
+            break;
         // Every other position from the forces, then the contacts that have come into their
         // plane.
         coupling.displace(free_positions, forces, &member, positions);

@@ -69,6 +69,12 @@ struct ContactSettings {
     /// Stop when no position moves more than this in a sweep (m; the solvers take it relative
     /// to the rest bounding-box diagonal).
     double tolerance = 1e-7;
+    /// When the sweeps run out: whether the positions of the contacts outside the working set
+    /// are still brought up to date (and the depth of those that would join taken into
+    /// ContactSolveResult::last_change). The contact stage reads only the forces and sets it
+    /// false: that pass over every contact is then saved (docs/method.md, section 5,
+    /// "Iterations").
+    bool outside_positions = true;
 };
 
 struct ContactSolveResult {
@@ -140,7 +146,8 @@ std::vector<int> boundary_nodes(const Eigen::Ref<const MatX4i>& tets, Index num_
 ///   free_positions   m x 3: the pairs' node positions after the global step without contact
 ///   start_positions  m x 3: the pairs' node positions at the start of the time step
 ///   forces           m x 3: in: a warm start (zeros at first), out: the contact forces
-///   positions        m x 3: out: the pairs' node positions with the contact forces
+///   positions        m x 3: out: the pairs' node positions with the contact forces (see
+///                    ContactSettings::outside_positions)
 /// Allocates nothing once `scratch` is warm (the overload without it allocates its own).
 ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     const std::vector<PlaneCollider>& planes, const std::vector<ContactPair>& pairs,

@@ -414,6 +414,7 @@ void ContactStage::solve(bool last)
     // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
     // iterate they push still moves; the last iteration's solve is the one that must hold).
     ContactSettings settings = m_settings;
+    settings.outside_positions = false; // only the forces are read below
     if (!last && m_body_contacts > 0)
         settings.max_sweeps = std::min(settings.max_sweeps, settings.early_sweeps);
     const ContactSolveResult result = solve_plane_contacts(

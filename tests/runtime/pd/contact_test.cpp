@@ -183,37 +183,55 @@ namespace {
         MatX m_columns;
     };
 
+    /// 12 nodes of a bar-like body (D = 1 + 0.05 I + a little decay with distance) along x,
+    /// under a tilted plane: some start behind it, some in front, and pushing the ones behind
+    /// lifts the others.
+    struct TiltedBar {
+        static constexpr Index m = 12;
+        MatX coupling { m, m };
+        PlaneCollider plane { Vec3::Zero(), Vec3(0.1, 1.0, 0.0).normalized(), 0.3 };
+        std::vector<PlaneCollider> planes;
+        std::vector<ContactPair> pairs;
+        MatX3 free { m, 3 }, start { m, 3 };
+        TiltedBar()
+        {
+            for (Index i = 0; i < m; ++i)
+                for (Index j = 0; j < m; ++j)
+                    coupling(i, j) = 1.0 / (1.0 + 0.1 * std::abs(static_cast<double>(i - j)))
+                        + (i == j ? 0.05 : 0.0);
+            plane.compliance = 0.1;
+            planes.push_back(plane);
+            for (Index i = 0; i < m; ++i) {
+                pairs.push_back(ContactPair { static_cast<int>(i), 0 });
+                const double x = 0.1 * static_cast<double>(i);
+                free.row(i) << x + 0.01, 0.02 * std::sin(3.0 * x) - 0.005, 0.0;
+                start.row(i) << x, 0.01, 0.0;
+            }
+        }
+        /// The solve on `coupling` (the dense one if null).
+        ContactSolveResult solve(const ContactSettings& settings, MatX3& forces, MatX3& positions,
+            ContactCoupling* lazy = nullptr) const
+        {
+            DenseContactCoupling dense(coupling);
+            return solve_plane_contacts(lazy != nullptr ? *lazy : dense, planes, pairs, free, start,
+                forces, positions, settings);
+        }
+    };
+
     TEST(PlaneContact, SolveReadsOnlyTheCouplingItAsksFor)
     {
-        // 12 nodes of a bar-like body (D = 1 + 0.05 I + a little decay with distance) along x,
-        // under a tilted plane: some start behind it, some in front, and pushing the ones
-        // behind lifts the others. The solve that gets D column by column must equal the dense
-        // one and ask only for the columns of contacts that push.
-        const Index m = 12;
-        MatX coupling(m, m);
-        for (Index i = 0; i < m; ++i)
-            for (Index j = 0; j < m; ++j)
-                coupling(i, j) = 1.0 / (1.0 + 0.1 * std::abs(static_cast<double>(i - j)))
-                    + (i == j ? 0.05 : 0.0);
-        PlaneCollider plane { Vec3::Zero(), Vec3(0.1, 1.0, 0.0).normalized(), 0.3 };
-        plane.compliance = 0.1;
-        const std::vector<PlaneCollider> planes { plane };
-        std::vector<ContactPair> pairs;
-        MatX3 free(m, 3), start(m, 3);
-        for (Index i = 0; i < m; ++i) {
-            pairs.push_back(ContactPair { static_cast<int>(i), 0 });
-            const double x = 0.1 * static_cast<double>(i);
-            free.row(i) << x + 0.01, 0.02 * std::sin(3.0 * x) - 0.005, 0.0;
-            start.row(i) << x, 0.01, 0.0;
-        }
+        // The solve that gets D column by column must equal the dense one and ask only for the
+        // columns of contacts that push.
+        const TiltedBar bar;
+        const Index m = TiltedBar::m;
         ContactSettings settings;
         settings.max_sweeps = 500;
         settings.tolerance = 1e-13;
         MatX3 dense_forces = MatX3::Zero(m, 3), dense_positions(m, 3);
-        solve_dense(coupling, planes, pairs, free, start, dense_forces, dense_positions, settings);
-        LazyCoupling lazy(coupling);
+        bar.solve(settings, dense_forces, dense_positions);
+        LazyCoupling lazy(bar.coupling);
         MatX3 forces = MatX3::Zero(m, 3), positions(m, 3);
-        solve_plane_contacts(lazy, planes, pairs, free, start, forces, positions, settings);
+        bar.solve(settings, forces, positions, &lazy);
         ASSERT_TRUE(forces.allFinite() && positions.allFinite());
         EXPECT_LT((forces - dense_forces).cwiseAbs().maxCoeff(), 1e-12);
         EXPECT_LT((positions - dense_positions).cwiseAbs().maxCoeff(), 1e-12);
@@ -225,7 +243,40 @@ namespace {
         EXPECT_LE(lazy.columns(), static_cast<std::size_t>(m - 1));
         // Every contact ends on or in front of its plane (up to its compliance).
         for (Index i = 0; i < m; ++i)
-            EXPECT_GT(plane.normal.dot(positions.row(i).transpose()), -0.1 * 0.005) << i;
+            EXPECT_GT(bar.plane.normal.dot(positions.row(i).transpose()), -0.1 * 0.005) << i;
+    }
+
+    TEST(PlaneContact, CappedSolveWithoutOutsidePositionsKeepsItsForces)
+    {
+        // The tilted bar, its sweeps cut to 1 so that they run out: without the last
+        // pass over the contacts outside the working set the forces and the working set's
+        // positions must be those of the solve with it, bit for bit, and the others keep the
+        // positions of the solve's start (x_free + D f for the warm start, here no force).
+        const TiltedBar bar;
+        const Index m = TiltedBar::m;
+        ContactSettings settings;
+        settings.max_sweeps = 1;
+        settings.tolerance = 1e-13;
+        MatX3 all_forces = MatX3::Zero(m, 3), all_positions(m, 3);
+        const ContactSolveResult all = bar.solve(settings, all_forces, all_positions);
+        ASSERT_GT(all.last_change, settings.tolerance); // the sweeps ran out
+        settings.outside_positions = false;
+        MatX3 forces = MatX3::Zero(m, 3), positions = MatX3::Constant(m, 3, 7.0);
+        bar.solve(settings, forces, positions);
+        EXPECT_EQ(forces, all_forces);
+        Index working = 0;
+        for (Index i = 0; i < m; ++i) {
+            const bool in_set = forces.row(i).squaredNorm() > 0.0
+                || !(bar.plane.normal.dot(bar.free.row(i).transpose()) > 0.0);
+            if (in_set) {
+                ++working;
+                EXPECT_EQ(positions.row(i), all_positions.row(i)) << i;
+            } else {
+                EXPECT_EQ(positions.row(i), bar.free.row(i)) << i;
+            }
+        }
+        EXPECT_GT(working, 0);
+        EXPECT_LT(working, m);
     }
 
     /// A 0.3 m grid cube, the identity basis, stiff enough to stay nearly rigid.
