@@ -189,6 +189,9 @@ const BodyContacts& Simulation::detect_contacts()
         states[b].velocities = &body.state.velocities;
         if (!states[b].is_static)
             states[b].motion = motion_bound(body);
+        // Not with a hyper-reduced body (its local stage does not read the iterate):
+        // creatures_collide crushed with it (docs/method.md, "Speculative contacts").
+        states[b].may_stop = body.is_static || body.solver->local_stage().reads_iterate();
     }
     m_collision->update_bounds(states);
     for (Body& body : m_bodies)

@@ -310,6 +310,7 @@ namespace {
         double near = 0.0; ///< the margin, plus the extra against a body that does not fall
         double reach = 0.0; ///< near, plus the node's and the other body's motion in the step
         bool same_body = false; ///< the triangles are of the node's own body
+        bool stopping = true; ///< either body may stop (NarrowPhaseBody::may_stop)
     };
 
     /// A triangle that takes the node: its closest point, signed distance and unit normal.
@@ -320,9 +321,9 @@ namespace {
     };
 
     /// Whether the node is in front of the (non-degenerate) triangle's plane by the reach or
-    /// more, or by more than it can close at its fastest approach to a corner: -unit . (v_node -
-    /// v_corner) at most -unit . v_node + the face's normal_speed (with a relative slack of 1e-12
-    /// for the rounding of that sum: the rejection must be sure).
+    /// more, or by more than it can close at its fastest approach to a corner: the
+    /// stopping_approach of the node and the face's normal_speed (the fastest corner's; with a
+    /// relative slack of 1e-12 for the rounding: the rejection must be sure).
     bool plane_out_of_reach(const NodeQuery& q, const NarrowFace& g)
     {
         const double plane = g.unit.dot(q.x - g.p0);
@@ -330,7 +331,8 @@ namespace {
             return true;
         if (plane >= q.near) {
             const double along = g.unit.dot(q.velocity);
-            const double approach = std::max(0.0, g.normal_speed - along)
+            const double approach
+                = NarrowPhase::stopping_approach(along, g.normal_speed, q.stopping)
                 + 1e-12 * (std::abs(g.normal_speed) + std::abs(along));
             if (plane >= (1.0 + 1e-12) * (q.near + q.lookahead * approach))
                 return true;
@@ -353,14 +355,15 @@ namespace {
     }
 
     /// Whether a node in front of triangle f at `signed_distance` (beyond the margin) is further
-    /// than it closes in the step at its approach speed to the closest point.
+    /// than it may close in the step on the closest point (stopping_approach).
     bool approach_out_of_reach(const NodeQuery& q, const NarrowPhaseBody& other, int f,
         const PointTriangleClosest& closest, const Vec3& unit, double signed_distance)
     {
         Vec3 v_point = Vec3::Zero();
         for (int c = 0; c < 3; ++c)
             v_point += closest.barycentric(c) * node_velocity(other, (*other.faces)(f, c));
-        const double approach = std::max(0.0, -unit.dot(q.velocity - v_point));
+        const double approach
+            = NarrowPhase::stopping_approach(unit.dot(q.velocity), unit.dot(v_point), q.stopping);
         return signed_distance >= q.near + q.lookahead * approach;
     }
 
@@ -403,11 +406,14 @@ namespace {
     /// is rejected by node_face_hit when the distance from the node to its box exceeds both
     /// sqrt(3) margins (a node behind a face is taken only within its box grown by the margin on
     /// each axis) and near + lookahead x the approach speed to the closest point (a node in
-    /// front), and that approach is at most |v_node - v_point| for a point of the face. Two
-    /// bounds of that speed: the node's speed plus the face's fastest corner's, and the node's
-    /// velocity relative to the face's mean corner velocity plus the corners' spread about it
-    /// (the point's velocity lies between the corners'). Either rejection changes nothing. Each
-    /// bound has a relative slack of 1e-9, plus `slack` (m) against the rounding of the means.
+    /// front), and that approach (stopping_approach) is at most the largest of |v_node -
+    /// v_point|, |v_node| and |v_point| for a point of the face. Two bounds of that speed: the
+    /// node's speed plus the face's fastest corner's, and the largest of the node's velocity
+    /// relative to the face's mean corner velocity plus the corners' spread about it, the node's
+    /// speed, and the mean's plus the spread (the point's velocity lies between the corners';
+    /// without NodeQuery::stopping, the first of these alone).
+    /// Either rejection changes nothing. Each bound has a relative slack of 1e-9, plus `slack`
+    /// (m) against the rounding of the means.
     struct Reach {
         double hold = 0.0; ///< max(near, sqrt(3) margin)
         double most = 0.0; ///< the node's reach, and the bound over all the body's faces
@@ -416,13 +422,15 @@ namespace {
     };
 
     /// The second bound above alone: through the node's velocity relative to the faces' mean
-    /// velocity, plus their spread about it.
+    /// velocity (or either alone), plus their spread about it.
     double relative_reach(
         const NodeQuery& q, const Reach& r, const Vec3& mean_velocity, double spread)
     {
-        return (1.0 + 1e-9)
-            * (r.hold + q.lookahead * ((q.velocity - mean_velocity).norm() + spread))
-            + r.slack;
+        const double relative = (q.velocity - mean_velocity).norm() + spread;
+        const double speed = q.stopping
+            ? std::max({ relative, r.own_speed, mean_velocity.norm() + spread })
+            : relative;
+        return (1.0 + 1e-9) * (r.hold + q.lookahead * speed) + r.slack;
     }
     /// The farthest from a node that a face (or every face of a set) whose corners move as
     /// (mean velocity, fastest corner's speed, spread about the mean) can take it: the smaller
@@ -591,6 +599,7 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.velocity.norm() + other.motion;
         query.same_body = bf == bn;
+        query.stopping = own.may_stop && other.may_stop;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         // Only the faces that the node's velocity relative to the body's active faces (their
         // mean velocity, plus the spread about it) can reach: see Reach.

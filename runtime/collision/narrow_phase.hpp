@@ -69,6 +69,10 @@ struct NarrowPhaseBody {
     /// #Vs x 3 surface vertex positions at rest: the sharp edges (edge contacts) are the rest
     /// shape's (null: the surface's at the body's first run).
     const MatX3* rest_surface = nullptr;
+    /// Whether its speculative contacts allow for either body of a pair stopping during the
+    /// step (stopping_approach; a pair takes it only if both bodies do); false: the approach at
+    /// the start velocities only (docs/method.md, "Speculative contacts": hyper-reduced bodies).
+    bool may_stop = true;
 };
 
 /// A colliding primitive pair as the narrow phase reads it.
@@ -147,6 +151,19 @@ public:
         m_edge_contacts = on;
         m_sharp_cosine = std::cos(sharp_degrees * M_PI / 180.0);
     }
+    /// How fast a point closes on a point of another body along a normal in the step, at most,
+    /// where either body may stop during it (docs/method.md, "Speculative contacts": a body that
+    /// lands on the ground stops under one that lands on it, which at the step's start moved
+    /// with it): the largest of the approach at the start velocities, the point's own (the
+    /// other's body stops) and the other point's (this point's body stops); 0 if none approaches.
+    /// `along`, `other_along`: their velocities along the normal, which points from the other
+    /// point towards this one. `stopping` false: the approach at the start velocities only.
+    static double stopping_approach(double along, double other_along, bool stopping = true)
+    {
+        return stopping ? std::max({ 0.0, other_along - along, -along, other_along })
+                        : std::max(0.0, other_along - along);
+    }
+
     /// Edges whose faces' normals are at least this far apart at rest (and convex) are sharp:
     /// only two sharp edges take a contact in front of each other. Two edges that meet flatter are
     /// held by their surfaces' vertex-face contacts (between vertices held out of the other

@@ -141,17 +141,20 @@ namespace {
         double reach = 0.0; ///< near, plus the edge's and the other body's motion in the step
         double hold = 0.0; ///< max(near, margin): taken whatever the motion
         double lookahead = 0.0;
+        bool stopping = true; ///< either body may stop (NarrowPhaseBody::may_stop)
     };
 
     /// The farthest from the query edge that an edge (or every edge of a set) moving as (mean
     /// velocity, fastest end's speed, spread about the mean) can take it: the margin, or near
-    /// plus the lookahead times the most their points can approach each other (the speeds' sum,
-    /// or the means' difference plus both spreads), with a relative slack of 1e-9 (an edge's
-    /// points move between its ends' velocities).
+    /// plus the lookahead times the most their points can approach each other, where either may
+    /// stop (NarrowPhase::stopping_approach: the speeds' sum, or the largest of the means'
+    /// difference plus both spreads and each fastest end's speed), with a relative slack of
+    /// 1e-9 (an edge's points move between its ends' velocities).
     double edge_reach(const EdgeQuery& q, const Vec3& mean, double speed, double spread)
     {
-        const double approach
-            = std::min(q.speed + speed, (q.mean - mean).norm() + q.spread + spread);
+        const double relative = (q.mean - mean).norm() + q.spread + spread;
+        const double approach = std::min(
+            q.speed + speed, q.stopping ? std::max({ relative, q.speed, speed }) : relative);
         return std::min(q.reach, (1.0 + 1e-9) * (q.hold + q.lookahead * approach) + 1e-9 * q.hold);
     }
 
@@ -213,7 +216,8 @@ namespace {
         } else if (gap >= q.near) {
             const Vec3 v = (1.0 - closest.s) * q.v0 + closest.s * q.v1;
             const Vec3 w = (1.0 - closest.t) * w0 + closest.t * w1;
-            const double approach = std::max(0.0, -normal.dot(v - w));
+            const double approach
+                = NarrowPhase::stopping_approach(normal.dot(v), normal.dot(w), q.stopping);
             if (gap >= q.reach || gap >= q.near + q.lookahead * approach)
                 return false;
         }
@@ -368,6 +372,7 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.speed + other.motion;
         query.hold = std::max(query.near, margin);
+        query.stopping = own.may_stop && other.may_stop;
         // Each sharp partner edge whose box is within the reach of the two edges' motion, then
         // the exact rule.
         const auto test_edge = [&](const BodyData::ActiveEdge& edge) {

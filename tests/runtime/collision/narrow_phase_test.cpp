@@ -149,9 +149,9 @@ namespace {
     /// Pair by pair, as the narrow phase did before it deduplicated (the definition it must
     /// cover).
     /// A node in front of a face further than the margin is a (speculative) candidate when it
-    /// closes the distance within `lookahead` at its approach speed (its velocity relative to
-    /// the closest point's, along the face's normal), and is within the margin plus lookahead
-    /// times its speed.
+    /// closes the distance within `lookahead` at the most it may approach (along the face's
+    /// normal: its velocity relative to the closest point's, or either alone, where the other
+    /// body stops), and is within the margin plus lookahead times its speed.
     bool speculative(const PlacedBody& x, int node, const PlacedBody& y, int f,
         const PointTriangleClosest& closest, const Vec3& unit, double signed_d, double margin,
         double lookahead)
@@ -162,7 +162,8 @@ namespace {
         Vec3 v_point = Vec3::Zero();
         for (int c = 0; c < 3; ++c)
             v_point += closest.barycentric(c) * Vec3(y.velocities.row(y.faces(f, c)).transpose());
-        const double approach = std::max(0.0, -unit.dot(v - v_point));
+        const double approach
+            = std::max({ 0.0, -unit.dot(v - v_point), -unit.dot(v), unit.dot(v_point) });
         return signed_d < margin + lookahead * v.norm() && signed_d < margin + lookahead * approach;
     }
 
@@ -403,6 +404,28 @@ namespace {
         EXPECT_GT(moving, at_rest);
     }
 
+    // Two bodies falling together, the one above the other (no approach at the start
+    // velocities): the lower one may land and stop during the step, so the upper one's nodes
+    // within reach of their own speed are candidates too (docs/method.md, "Speculative
+    // contacts"), more than with both at rest.
+    TEST(NarrowPhase, BodiesFallingTogetherAreCandidatesWithinTheirOwnReach)
+    {
+        const Mat3 turn = Eigen::AngleAxisd(0.5, Vec3::UnitY()).toRotationMatrix();
+        const Vec3 at(0.05, 0.4, 0.02);
+        const Vec3 none = Vec3::Zero();
+        const Vec3 fall(0.0, -1.6, 0.0);
+        const double margin = 0.013;
+        const double lookahead = 0.04;
+        const PlacedBody still0(Mat3::Identity(), Vec3::Zero(), &none, Vec3::Zero());
+        const PlacedBody still1(turn, at, &none, Vec3::Zero());
+        const PlacedBody falling0(Mat3::Identity(), Vec3::Zero(), &none, fall);
+        const PlacedBody falling1(turn, at, &none, fall);
+        const std::size_t at_rest = check_against_reference(still0, still1, margin, 0.0, margin);
+        const std::size_t falling = check_against_reference(
+            falling0, falling1, margin, lookahead, margin + lookahead * 2.0 * fall.norm());
+        EXPECT_GT(falling, at_rest);
+    }
+
 } // namespace
 } // namespace mat
 
@@ -521,7 +544,7 @@ namespace {
                 return std::nullopt;
             const Vec3 va = (1.0 - c.s) * v(a, ia[0]) + c.s * v(a, ia[1]);
             const Vec3 vb = (1.0 - c.t) * v(b, ib[0]) + c.t * v(b, ib[1]);
-            const double approach = std::max(0.0, -n.dot(va - vb));
+            const double approach = std::max({ 0.0, -n.dot(va - vb), -n.dot(va), n.dot(vb) });
             if (g >= margin && (g >= reach || g >= margin + lookahead * approach))
                 return std::nullopt;
             return g;
