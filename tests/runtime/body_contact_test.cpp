@@ -663,7 +663,7 @@ namespace {
     // With the contacts found again at the iterate halfway through each step the deepest vertex
     // stays within 0.5% of the diagonal (measured 0.9-1.2 mm over five runs of the sample with
     // friction 0.3-0.312, on a 1.30 m creature); with the step start's contacts alone it sinks
-    // past 0.6% (10.2-10.5 mm; 19-23 mm before the speculative contacts allowed for a body that
+    // past 0.6% (9.9-10.5 mm; 19-23 mm before the speculative contacts allowed for a body that
     // stops during the step, docs/method.md, "Speculative contacts"). The energy never rises
     // above its start either way.
     class DetectInStepTest : public SampleSceneTest { };
