@@ -58,7 +58,7 @@ struct SolverSettings {
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
     bool self_collision = false; ///< "on" or "off"
     bool edge_contacts = false; ///< "on" or "off": edge-edge contacts besides vertex-face
-    bool compliance_preload = false; ///< "on" or "off" (SolverOptions::compliance_preload)
+    bool compliance_preload = true; ///< "on" or "off" (SolverOptions::compliance_preload)
     /// "iterate" or "step" (SolverOptions::planes_follow_iterate)
     bool planes_follow_iterate = true;
     /// "on" or "off": contacts found again at the iterate halfway through a step (not in a step

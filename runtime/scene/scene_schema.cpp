@@ -278,7 +278,7 @@ namespace {
                          "(docs/method.md, \"Edge contacts\")"),
             enum_key(S::solver, "compliance_preload", &SolverSettings::compliance_preload,
                 { "on", "off" })
-                .set_default("off")
+                .set_default("on")
                 .set_doc("a contact between objects that pressed in the last step keeps that "
                          "force free of the contacts' compliance, so that a steady contact "
                          "rests at the surface instead of slightly inside it; hyper-reduced "
