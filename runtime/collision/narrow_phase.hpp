@@ -158,7 +158,7 @@ public:
     /// other's body stops) and the other point's (this point's body stops); 0 if none approaches.
     /// `along`, `other_along`: their velocities along the normal, which points from the other
     /// point towards this one. `stopping` false: the approach at the start velocities only.
-    static double stopping_approach(double along, double other_along, bool stopping = true)
+    static double stopping_approach(double along, double other_along, bool stopping)
     {
         return stopping ? std::max({ 0.0, other_along - along, -along, other_along })
                         : std::max(0.0, other_along - along);

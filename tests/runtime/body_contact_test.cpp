@@ -534,7 +534,6 @@ namespace {
     struct SampleParam {
         const char* name;
         bool no_pairs_at_rest; ///< no intersecting triangle pair in the last 10 frames
-        const char* solver_keys = ""; ///< added to the scene's solver section
     };
 
     /// A collision sample's scene (samples/NAME/scene.json) on bakes written into the test's
@@ -590,7 +589,7 @@ namespace {
     {
         const SampleParam& p = GetParam();
         const std::string name = p.name;
-        const Scene scene = sample_scene(name, p.solver_keys);
+        const Scene scene = sample_scene(name);
         Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
         double smallest = std::numeric_limits<double>::infinity();
         for (const Body& body : simulation.bodies())
