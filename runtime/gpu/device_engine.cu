@@ -45,8 +45,9 @@ namespace {
     }
 
     constexpr int block_size = 128;
-    /// Entries of B^T y per segment (one block of block_size threads each).
-    constexpr int segment_entries = 512;
+    /// Entries of B^T y per segment (one block of block_size threads each), unless the
+    /// environment's MAT_CUDA_SEGMENT says otherwise (Engine::Impl::segment_entries).
+    constexpr int default_segment_entries = 512;
     constexpr int max_terms = 10;
 
     int blocks_for(int count)
@@ -64,7 +65,10 @@ namespace {
 #define MAT_PDL 0
 #endif
 
-    /// The predecessor's writes, before anything reads them (see MAT_PDL).
+    /// The predecessor's writes, before anything reads them (see MAT_PDL). No kernel triggers its
+    /// successor early (cudaTriggerProgrammaticLaunchCompletion): the successor launches as this
+    /// kernel's blocks exit. Triggering right after this wait made a 50k-tet step slower on an
+    /// H100 (docs/gpu.md).
     __device__ inline void wait_for_predecessor()
     {
 #if MAT_PDL && defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
@@ -167,41 +171,42 @@ namespace {
                 out[3 * c + d] = share[c][d];
     }
 
-    /// Threads per node in the per-node kernels: their sums split four ways, then added in a
-    /// fixed butterfly (commutative at each level: every lane gets the same bits).
-    constexpr int node_group = 4;
-
-    __device__ inline double group_sum(double value)
+    /// Threads per node in the per-node kernels (`Group`: 4 or 8, Engine::Impl::node_group):
+    /// their sums split that many ways, then added in a fixed butterfly (commutative at each
+    /// level: every lane gets the same bits).
+    template <int Group> __device__ inline double group_sum(double value)
     {
-        value += __shfl_xor_sync(0xffffffffu, value, 1);
-        value += __shfl_xor_sync(0xffffffffu, value, 2);
+#pragma unroll
+        for (int lane_mask = 1; lane_mask < Group; lane_mask <<= 1)
+            value += __shfl_xor_sync(0xffffffffu, value, lane_mask);
         return value;
     }
 
-    int node_blocks(int n)
+    int node_blocks(int n, int group)
     {
-        return (n * node_group + block_size - 1) / block_size;
+        return (n * group + block_size - 1) / block_size;
     }
 
-    /// node_group threads per node: y = base + its corners' shares (corner j to thread j mod 4).
+    /// `Group` threads per node: y = base + its corners' shares (corner j to thread j mod Group).
+    template <int Group>
     __global__ void gather_kernel(int n, const int* __restrict__ offsets,
         const int* __restrict__ corners, const double* __restrict__ shares,
         const double* __restrict__ base, double* __restrict__ y)
     {
         wait_for_predecessor();
         const int thread = blockIdx.x * blockDim.x + threadIdx.x;
-        const int i = thread / node_group, sub = thread % node_group;
+        const int i = thread / Group, sub = thread % Group;
         double s0 = 0.0, s1 = 0.0, s2 = 0.0;
         if (i < n)
-            for (int j = offsets[i] + sub; j < offsets[i + 1]; j += node_group) {
+            for (int j = offsets[i] + sub; j < offsets[i + 1]; j += Group) {
                 const double* share = shares + 3 * static_cast<long long>(corners[j]);
                 s0 += share[0];
                 s1 += share[1];
                 s2 += share[2];
             }
-        s0 = group_sum(s0);
-        s1 = group_sum(s1);
-        s2 = group_sum(s2);
+        s0 = group_sum<Group>(s0);
+        s1 = group_sum<Group>(s1);
+        s2 = group_sum<Group>(s2);
         if (i < n && sub < 3)
             y[3 * i + sub] = base[3 * i + sub] + (sub == 0 ? s0 : sub == 1 ? s1 : s2);
     }
@@ -220,32 +225,44 @@ namespace {
         return value;
     }
 
-    /// One block per segment of one handle's entries: sum_e w_e p_t(y_e) y_{node e}, for the
-    /// handle's `Terms` monomials and three coordinates, into the segment's partial.
-    /// The last block of a handle to finish (counted in `tickets`, which it resets) adds the
-    /// handle's partials in segment order into its rows of `reduced`: which block that is varies,
-    /// the sum does not.
+    /// The data of transpose_kernel.
+    struct TransposeData {
+        Segments segments; ///< all of them, linear handles' first
+        int linear_segments;
+        const double* centers;
+        const double* scales;
+        const int* entry_nodes;
+        const double* entry_weights;
+        const double* rest;
+        const double* y;
+        double* partials; ///< per segment, max_terms * 3
+        const int* partial_ranges;
+        const int* offsets;
+        unsigned int* tickets;
+        double* reduced;
+    };
+
+    /// Segment `seg` of one handle's entries: sum_e w_e p_t(y_e) y_{node e}, for the handle's
+    /// `Terms` monomials and three coordinates, into the segment's partial (`warps`: the block's
+    /// shared scratch). The last block of a handle to finish (counted in `tickets`, which it
+    /// resets) adds the handle's partials in segment order into its rows of `reduced`: which
+    /// block that is varies, the sum does not.
     template <int Terms>
-    __global__ void transpose_kernel(Segments segments, int first_partial,
-        const double* __restrict__ centers, const double* __restrict__ scales,
-        const int* __restrict__ entry_nodes, const double* __restrict__ entry_weights,
-        const double* __restrict__ rest, const double* __restrict__ y, double* partials,
-        const int* __restrict__ partial_ranges, const int* __restrict__ offsets,
-        unsigned int* tickets, double* __restrict__ reduced)
+    __device__ void transpose_segment(
+        const TransposeData& d, int seg, double (*warps)[max_terms * 3], bool& last)
     {
-        wait_for_predecessor();
-        const int seg = blockIdx.x;
-        if (seg >= segments.count)
-            return;
-        const int j = segments.handle[seg];
-        const double cx = centers[3 * j], cy = centers[3 * j + 1], cz = centers[3 * j + 2];
-        const double inverse_scale = scales[j];
+        const double* __restrict__ rest = d.rest;
+        const double* __restrict__ y = d.y;
+        const int j = d.segments.handle[seg];
+        const double cx = d.centers[3 * j], cy = d.centers[3 * j + 1], cz = d.centers[3 * j + 2];
+        const double inverse_scale = d.scales[j];
         double acc[Terms * 3];
         for (int t = 0; t < Terms * 3; ++t)
             acc[t] = 0.0;
-        for (int e = segments.begin[seg] + threadIdx.x; e < segments.end[seg]; e += blockDim.x) {
-            const int i = entry_nodes[e];
-            const double w = entry_weights[e];
+        const int end = d.segments.end[seg];
+        for (int e = d.segments.begin[seg] + threadIdx.x; e < end; e += blockDim.x) {
+            const int i = d.entry_nodes[e];
+            const double w = d.entry_weights[e];
             double p[max_terms];
             handle_monomials((rest[3 * i] - cx) * inverse_scale,
                 (rest[3 * i + 1] - cy) * inverse_scale, (rest[3 * i + 2] - cz) * inverse_scale, p);
@@ -258,7 +275,6 @@ namespace {
                 acc[3 * t + 2] += wp * y2;
             }
         }
-        __shared__ double warps[block_size / 32][Terms * 3];
         const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
 #pragma unroll
         for (int t = 0; t < Terms * 3; ++t) {
@@ -271,40 +287,58 @@ namespace {
             double sum = 0.0;
             for (int w = 0; w < block_size / 32; ++w)
                 sum += warps[w][threadIdx.x];
-            partials[static_cast<long long>(first_partial + seg) * (max_terms * 3) + threadIdx.x]
-                = sum;
+            d.partials[static_cast<long long>(seg) * (max_terms * 3) + threadIdx.x] = sum;
         }
         __threadfence();
         __syncthreads();
-        __shared__ bool last;
-        const int first = partial_ranges[2 * j], count = partial_ranges[2 * j + 1] - first;
+        const int first = d.partial_ranges[2 * j], count = d.partial_ranges[2 * j + 1] - first;
         if (threadIdx.x == 0)
-            last = atomicAdd(&tickets[j], 1u) == static_cast<unsigned int>(count - 1);
+            last = atomicAdd(&d.tickets[j], 1u) == static_cast<unsigned int>(count - 1);
         __syncthreads();
         if (!last)
             return;
         if (threadIdx.x < Terms * 3) {
             double sum = 0.0;
             for (int p = first; p < first + count; ++p) // other blocks' writes: past L1
-                sum += __ldcg(partials + static_cast<long long>(p) * (max_terms * 3) + threadIdx.x);
-            reduced[3 * offsets[j] + threadIdx.x] = sum;
+                sum += __ldcg(
+                    d.partials + static_cast<long long>(p) * (max_terms * 3) + threadIdx.x);
+            d.reduced[3 * d.offsets[j] + threadIdx.x] = sum;
         }
         if (threadIdx.x == 0)
-            tickets[j] = 0;
+            d.tickets[j] = 0;
     }
 
-    /// One warp per row of S^-1: q_row = S^-1_row (B^T y), three right-hand sides.
+    /// One block per segment: linear handles' segments (4 monomials), then quadratic ones' (10).
+    __global__ void transpose_kernel(TransposeData d)
+    {
+        wait_for_predecessor();
+        const int seg = static_cast<int>(blockIdx.x);
+        if (seg >= d.segments.count)
+            return;
+        __shared__ double warps[block_size / 32][max_terms * 3];
+        __shared__ bool last;
+        if (seg < d.linear_segments)
+            transpose_segment<4>(d, seg, warps, last);
+        else
+            transpose_segment<10>(d, seg, warps, last);
+    }
+
+    /// `Warps` warps per row of S^-1 (1, or block_size / 32: a block per row): q_row = S^-1_row
+    /// (B^T y), three right-hand sides. The warps' sums are added in warp order.
+    template <int Warps>
     __global__ void solve_kernel(int k, const double* __restrict__ inverse,
         const double* __restrict__ reduced, double* __restrict__ q)
     {
         wait_for_predecessor();
-        const int row = (blockIdx.x * blockDim.x + threadIdx.x) >> 5;
-        const int lane = threadIdx.x & 31;
+        constexpr int threads = 32 * Warps;
+        const int row = (blockIdx.x * blockDim.x + threadIdx.x) / threads;
+        const int lane = threadIdx.x % threads;
         if (row >= k)
             return;
         const double* a = inverse + static_cast<long long>(row) * k;
         double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-        for (int c = lane; c < k; c += 32) {
+#pragma unroll 4
+        for (int c = lane; c < k; c += threads) {
             const double value = a[c];
             s0 += value * reduced[3 * c];
             s1 += value * reduced[3 * c + 1];
@@ -313,15 +347,32 @@ namespace {
         s0 = warp_sum(s0);
         s1 = warp_sum(s1);
         s2 = warp_sum(s2);
-        if (lane == 0) {
-            q[3 * row] = s0;
-            q[3 * row + 1] = s1;
-            q[3 * row + 2] = s2;
+        if constexpr (Warps == 1) {
+            if (lane == 0) {
+                q[3 * row] = s0;
+                q[3 * row + 1] = s1;
+                q[3 * row + 2] = s2;
+            }
+        } else {
+            __shared__ double warps[Warps][3];
+            if (lane % 32 == 0) {
+                warps[lane / 32][0] = s0;
+                warps[lane / 32][1] = s1;
+                warps[lane / 32][2] = s2;
+            }
+            __syncthreads();
+            if (lane < 3) {
+                double sum = 0.0;
+                for (int w = 0; w < Warps; ++w)
+                    sum += warps[w][lane];
+                q[3 * row + lane] = sum;
+            }
         }
     }
 
-    /// node_group threads per node: x = X + sum over its handles of w p(y) q (entry e to thread
-    /// e mod 4).
+    /// `Group` threads per node: x = X + sum over its handles of w p(y) q (entry e to thread
+    /// e mod Group).
+    template <int Group>
     __global__ void reconstruct_kernel(int n, const double* __restrict__ centers,
         const double* __restrict__ scales, const int* __restrict__ handle_offsets,
         const int* __restrict__ handle_terms, const int* __restrict__ entry_offsets,
@@ -330,11 +381,11 @@ namespace {
     {
         wait_for_predecessor();
         const int thread = blockIdx.x * blockDim.x + threadIdx.x;
-        const int i = thread / node_group, sub = thread % node_group;
+        const int i = thread / Group, sub = thread % Group;
         double x0 = 0.0, x1 = 0.0, x2 = 0.0;
         if (i < n) {
             const double rx = rest[3 * i], ry = rest[3 * i + 1], rz = rest[3 * i + 2];
-            for (int e = entry_offsets[i] + sub; e < entry_offsets[i + 1]; e += node_group) {
+            for (int e = entry_offsets[i] + sub; e < entry_offsets[i + 1]; e += Group) {
                 const int j = entry_handles[e];
                 const double w = entry_weights[e];
                 const double inverse_scale = scales[j];
@@ -354,9 +405,9 @@ namespace {
                     }
             }
         }
-        x0 = group_sum(x0);
-        x1 = group_sum(x1);
-        x2 = group_sum(x2);
+        x0 = group_sum<Group>(x0);
+        x1 = group_sum<Group>(x1);
+        x2 = group_sum<Group>(x2);
         if (i < n && sub < 3)
             x[3 * i + sub] = rest[3 * i + sub] + (sub == 0 ? x0 : sub == 1 ? x1 : x2);
     }
@@ -416,13 +467,16 @@ namespace {
         }
     }
 
-    /// v = (1 - damping) (x - x_n) / h.
+    /// v = (1 - damping) (x - x_n) / h, then x_n = x (the next step's start).
     __global__ void end_kernel(int count, double scale, const double* __restrict__ x,
-        const double* __restrict__ xn, double* __restrict__ v)
+        double* __restrict__ xn, double* __restrict__ v)
     {
         const int i = blockIdx.x * blockDim.x + threadIdx.x;
-        if (i < count)
-            v[i] = scale * (x[i] - xn[i]);
+        if (i < count) {
+            const double now = x[i];
+            v[i] = scale * (now - xn[i]);
+            xn[i] = now;
+        }
     }
 
 } // namespace
@@ -432,6 +486,13 @@ struct Engine::Impl {
     /// The local kernel's register cap (local_kernel's MinBlocks): 4, or the environment's
     /// MAT_CUDA_LOCAL_BLOCKS (3, 4 or 5), for tuning on a new GPU.
     int local_blocks = 4;
+    /// More launch settings, which the environment may change for tuning on a new GPU
+    /// (gpu_bench's variants): entries per B^T y segment (MAT_CUDA_SEGMENT), threads per node in
+    /// the gather and the reconstruction (MAT_CUDA_NODE_GROUP: 4 or 8), warps per row of the
+    /// solve (MAT_CUDA_SOLVE_WARPS: 1 or 4).
+    int segment_entries = default_segment_entries;
+    int node_group = 8;
+    int solve_warps = block_size / 32;
     StepConstants constants {};
     ProjectionWeights weights;
     cudaStream_t stream = nullptr;
@@ -519,30 +580,31 @@ struct Engine::Impl {
     }
     void launch_gather()
     {
-        launch(gather_kernel, node_blocks(n), stream, n, incident_offsets, incident_corners, shares,
-            base, y);
+        launch(node_group == 8 ? gather_kernel<8> : gather_kernel<4>, node_blocks(n, node_group),
+            stream, n, incident_offsets, incident_corners, shares, base, y);
     }
     void launch_transpose()
     {
-        launch(transpose_kernel<4>, linear_segments, stream,
-            Segments { segment_handle, segment_begin, segment_end, linear_segments }, 0, centers,
-            scales, handle_entry_nodes, handle_entry_weights, rest, y, partials, partial_ranges,
-            handle_offsets, tickets, reduced);
-        launch(transpose_kernel<10>, quadratic_segments, stream,
-            Segments { segment_handle + linear_segments, segment_begin + linear_segments,
-                segment_end + linear_segments, quadratic_segments },
+        const int segments = linear_segments + quadratic_segments;
+        const TransposeData data { Segments {
+                                       segment_handle, segment_begin, segment_end, segments },
             linear_segments, centers, scales, handle_entry_nodes, handle_entry_weights, rest, y,
-            partials, partial_ranges, handle_offsets, tickets, reduced);
+            partials, partial_ranges, handle_offsets, tickets, reduced };
+        launch(transpose_kernel, segments, stream, data);
     }
     void launch_solve()
     {
-        launch(
-            solve_kernel, (k * 32 + block_size - 1) / block_size, stream, k, inverse, reduced, q);
+        if (solve_warps == 1)
+            launch(solve_kernel<1>, (k * 32 + block_size - 1) / block_size, stream, k, inverse,
+                reduced, q);
+        else
+            launch(solve_kernel<block_size / 32>, k, stream, k, inverse, reduced, q);
     }
     void launch_reconstruct()
     {
-        launch(reconstruct_kernel, node_blocks(n), stream, n, centers, scales, handle_offsets,
-            handle_terms, node_entry_offsets, node_entry_handles, node_entry_weights, rest, q, x);
+        launch(node_group == 8 ? reconstruct_kernel<8> : reconstruct_kernel<4>,
+            node_blocks(n, node_group), stream, n, centers, scales, handle_offsets, handle_terms,
+            node_entry_offsets, node_entry_handles, node_entry_weights, rest, q, x);
     }
     void iterate()
     {
@@ -586,7 +648,7 @@ void Engine::Impl::build_segments(const EngineModel& model)
             for (int b = first; b < last; b += segment_entries) {
                 handle.push_back(j);
                 begin.push_back(b);
-                end.push_back(b + segment_entries < last ? b + segment_entries : last);
+                end.push_back(std::min(b + segment_entries, last));
             }
             if (pass == 0)
                 linear_segments += (last - first + segment_entries - 1) / segment_entries;
@@ -664,6 +726,12 @@ Engine::Engine(const EngineModel& model)
         d.iterations = model.iterations;
         if (const char* blocks = std::getenv("MAT_CUDA_LOCAL_BLOCKS"))
             d.local_blocks = std::atoi(blocks);
+        if (const char* segment = std::getenv("MAT_CUDA_SEGMENT"))
+            d.segment_entries = std::max(32, std::atoi(segment));
+        if (const char* group = std::getenv("MAT_CUDA_NODE_GROUP"))
+            d.node_group = std::atoi(group) == 8 ? 8 : 4;
+        if (const char* warps = std::getenv("MAT_CUDA_SOLVE_WARPS"))
+            d.solve_warps = std::atoi(warps) == 1 ? 1 : block_size / 32;
         d.weights = model.weights;
         d.constants.h = model.time_step;
         for (int c = 0; c < 3; ++c)
@@ -848,8 +916,6 @@ void Engine::end_step()
     d.mark_begin();
     end_kernel<<<blocks_for(static_cast<int>(n3)), block_size, 0, d.stream>>>(
         static_cast<int>(n3), d.constants.velocity_scale, d.x, d.xn, d.v);
-    check(cudaMemcpyAsync(d.xn, d.x, n3 * sizeof(double), cudaMemcpyDeviceToDevice, d.stream),
-        "state copy");
     d.mark_end(d.phases.begin_end);
     check(cudaGetLastError(), "step end kernel");
 }

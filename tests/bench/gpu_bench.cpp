@@ -8,13 +8,13 @@
 //              when collision detection (on the CPU) reads it;
 //   phases:    the gpu steps again with a CUDA event after each phase (slower in all; the split,
 //              and the local step's ns per tet per iteration, come from it).
-// The GPU runs once per variant of the local kernel's register cap (MAT_CUDA_LOCAL_BLOCKS 4, the
-// default, then 3 and 5); "vs cpu" is the max node distance to the CPU's after 3 steps over the
+// The GPU runs once per variant of the engine's launch settings (Variant below: "default" is
+// what mat-run uses); "vs cpu" is the max node distance to the CPU's after 3 steps over the
 // diagonal.
 // Each timing is the median of ROUNDS rounds of STEPS steps, after warm-up steps. The last
 // positions of the CPU and GPU runs of the same steps are compared (max node distance over the
 // bake's diagonal).
-// Usage: gpu_bench [--steps S] [--rounds R] [--threads T] BAKE.h5...
+// Usage: gpu_bench [--steps S] [--rounds R] [--threads T] [--variant NAME] BAKE.h5...
 
 #include <algorithm>
 #include <cstdio>
@@ -70,16 +70,38 @@ double run_steps(PdSolver& solver, State& state, int steps, bool sync = false)
     return 1e3 * timer.seconds() / steps;
 }
 
-/// One GPU variant (the local kernel's register cap, MAT_CUDA_LOCAL_BLOCKS) on `model`: its
-/// line of the table, and its profiled phases.
+/// The engine's launch settings (runtime/gpu/device_engine.cu reads them from the environment).
+struct Variant {
+    const char* name;
+    const char* group; ///< MAT_CUDA_NODE_GROUP: threads per node (gather, reconstruction)
+    const char* warps; ///< MAT_CUDA_SOLVE_WARPS: warps per row of the solve
+    const char* segment; ///< MAT_CUDA_SEGMENT: entries per B^T y segment
+    const char* blocks; ///< MAT_CUDA_LOCAL_BLOCKS: the local kernel's register cap
+};
+
+/// "default" is what mat-run uses; "g4s1" the first release's per-node and solve kernels.
+constexpr Variant variants[] = {
+    { "default", "8", "4", "512", "4" },
+    { "g4s1", "4", "1", "512", "4" },
+    { "g4s4", "4", "4", "512", "4" },
+    { "g8s1", "8", "1", "512", "4" },
+    { "seg256", "8", "4", "256", "4" },
+    { "blocks3", "8", "4", "512", "3" },
+    { "blocks5", "8", "4", "512", "5" },
+};
+
+/// One GPU variant on `model`: its line of the table, and its profiled phases.
 void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after_3, double cpu_ms,
-    int steps, int rounds, const char* variant)
+    int steps, int rounds, const Variant& variant)
 {
-    setenv("MAT_CUDA_LOCAL_BLOCKS", variant, 1);
+    setenv("MAT_CUDA_NODE_GROUP", variant.group, 1);
+    setenv("MAT_CUDA_SOLVE_WARPS", variant.warps, 1);
+    setenv("MAT_CUDA_SEGMENT", variant.segment, 1);
+    setenv("MAT_CUDA_LOCAL_BLOCKS", variant.blocks, 1);
     options.device = Device::cuda;
     const std::unique_ptr<PdSolver> gpu = make_solver(SolverKind::semi_reduced, model, options);
     DeviceSemiStep& device = *gpu->device();
-    if (std::string(variant) == "4")
+    if (&variant == &variants[0])
         std::printf("device: %s\n", device.description().c_str());
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
@@ -103,14 +125,14 @@ void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after
         = [&](double DeviceTimings::*field) { return 1e3 * (t.*field - base.*field) / steps; };
     const double local = phase(&DeviceTimings::local);
     std::printf("%-10s%10.3f%10.3f%10.3f%10.1f%12.4f%12.3g |%8.3f%8.3f%8.3f%8.3f%8.3f%8.3f\n",
-        variant, cpu_ms, median(gpu_ms), median(sync_ms), cpu_ms / median(gpu_ms),
+        variant.name, cpu_ms, median(gpu_ms), median(sync_ms), cpu_ms / median(gpu_ms),
         1e6 * local / (static_cast<double>(model.num_tets()) * options.iterations), distance, local,
         phase(&DeviceTimings::gather), phase(&DeviceTimings::rhs), phase(&DeviceTimings::solve),
         phase(&DeviceTimings::reconstruct), phase(&DeviceTimings::begin_end));
     std::fflush(stdout);
 }
 
-void bench(const std::string& path, int steps, int rounds)
+void bench(const std::string& path, int steps, int rounds, const std::string& only)
 {
     const BakeData bake = read_bake(path);
     ModelOptions model_options;
@@ -121,6 +143,9 @@ void bench(const std::string& path, int steps, int rounds)
     const Model model(bake, material, model_options);
     SolverOptions options;
     options.iterations = 10;
+    // The GPU step keeps the angular momentum implicit Euler gives (docs/gpu.md): the CPU path
+    // runs the same physics, so that "vs cpu" compares like with like.
+    options.angular_momentum = AngularMomentum::integrator;
     std::printf("== %s: %ld tets, %ld nodes, %ld handles, %ld columns\n", path.c_str(),
         static_cast<long>(model.num_tets()), static_cast<long>(model.num_nodes()),
         static_cast<long>(model.handle_centers().rows()), static_cast<long>(model.num_columns()));
@@ -141,8 +166,9 @@ void bench(const std::string& path, int steps, int rounds)
     std::printf("%-10s%10s%10s%10s%10s%12s%12s | gpu phases ms/step, profiled: local, gather, "
                 "B^T y, solve, reconstruct, begin/end\n",
         "variant", "cpu ms", "gpu ms", "gpu+sync", "cpu/gpu", "local ns", "vs cpu");
-    for (const char* variant : { "4", "3", "5" })
-        bench_gpu(model, options, after_3, median(cpu_ms), steps, rounds, variant);
+    for (const Variant& variant : variants)
+        if (only.empty() || only == variant.name)
+            bench_gpu(model, options, after_3, median(cpu_ms), steps, rounds, variant);
 }
 
 } // namespace
@@ -150,25 +176,29 @@ void bench(const std::string& path, int steps, int rounds)
 int main(int argc, char** argv)
 {
     int steps = 20, rounds = 5, threads = 0;
+    std::string only;
     std::vector<std::string> bakes;
     for (int a = 1; a < argc; ++a) {
         const std::string arg = argv[a];
         if ((arg == "--steps" || arg == "--rounds" || arg == "--threads") && a + 1 < argc) {
             const int value = std::atoi(argv[++a]);
             (arg == "--steps" ? steps : arg == "--rounds" ? rounds : threads) = value;
-        } else
+        } else if (arg == "--variant" && a + 1 < argc)
+            only = argv[++a];
+        else
             bakes.push_back(arg);
     }
     if (bakes.empty() || steps < 1 || rounds < 1) {
-        std::fprintf(
-            stderr, "usage: gpu_bench [--steps S] [--rounds R] [--threads T] BAKE.h5...\n");
+        std::fprintf(stderr,
+            "usage: gpu_bench [--steps S] [--rounds R] [--threads T] [--variant NAME] "
+            "BAKE.h5...\n");
         return 2;
     }
     try {
         set_threads(threads);
         std::printf("cpu threads: %d\n", thread_count());
         for (const std::string& bake : bakes)
-            bench(bake, steps, rounds);
+            bench(bake, steps, rounds, only);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "gpu_bench: %s\n", e.what());
         return 1;
