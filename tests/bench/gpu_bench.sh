@@ -6,7 +6,7 @@
 # Usage: tests/bench/gpu_bench.sh [BUILD_DIR] [STEPS] [ROUNDS] [TET_SIZES...]
 #   BUILD_DIR: a build with -DMAT_CUDA=ON (default build-cuda), or a folder holding mat-bake and
 #   gpu_bench themselves (a bundle carried to a GPU machine). Tet sizes default to
-#   0.0095 0.006 0.0045 0.0028 (fractions of the diagonal: ~50k, ~200k, ~460k, ~1.9M tets).
+#   0.0095 0.006 0.0045 0.00274 (fractions of the diagonal: ~50k, ~200k, ~460k, ~2.0M tets).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${1:-$root/build-cuda}"
@@ -14,7 +14,7 @@ steps="${2:-20}"
 rounds="${3:-5}"
 shift $(($# < 3 ? $# : 3))
 sizes=("$@")
-[ ${#sizes[@]} -gt 0 ] || sizes=(0.0095 0.006 0.0045 0.0028)
+[ ${#sizes[@]} -gt 0 ] || sizes=(0.0095 0.006 0.0045 0.00274)
 if [ -x "$build/mat-bake" ]; then
     bake="$build/mat-bake" bench="$build/gpu_bench"
 else

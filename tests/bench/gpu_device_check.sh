@@ -5,7 +5,7 @@
 #   2. mat-run --device cpu against --device cuda on samples/creature (ground contact) and
 #      samples/creature_stack (contacts between bodies, detection every step): each body's last
 #      frame, max vertex distance between the two runs;
-#   3. tests/bench/gpu_bench.sh (ms per step at about 50k, 200k, 460k and 1.9M tets, GPU against
+#   3. tests/bench/gpu_bench.sh (ms per step at about 50k, 200k, 460k and 2.0M tets, GPU against
 #      the CPU path on all cores, per launch variant).
 # Usage: tests/bench/gpu_device_check.sh BIN [OUT_DIR] [FRAMES] [STEPS] [ROUNDS]
 #   BIN: a folder holding mat-bake, mat-run, gpu_bench and test_runtime_gpu, built with
