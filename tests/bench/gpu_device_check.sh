@@ -28,7 +28,8 @@ grep -E "^(free spin|exact projections|pinned)|PASSED|SKIPPED|FAILED" "$out/test
 
 echo "== mat-run, --device cpu against --device cuda, $frames frames"
 for bake in creature/creature.h5 creature/creature_coarse.h5; do
-    [ -f "$root/samples/$bake" ] || make -s -C "$root/samples" MAT_BAKE="$bin/mat-bake" "$bake" > /dev/null
+    [ -f "$root/samples/$bake" ] \
+        || make -s -C "$root/samples" MAT_BAKE="$bin/mat-bake" "$bake" > /dev/null
 done
 for scene in creature creature_stack; do
     # The GPU steps keep the angular momentum implicit Euler gives (docs/gpu.md): both runs do.
@@ -54,7 +55,8 @@ for path in sorted(glob.glob(os.path.join(cpu, "*_%05d.obj" % frames))):
     a, b = vertices(path), vertices(os.path.join(cuda, os.path.basename(path)))
     assert len(a) == len(b) and a, path
     distance = max(math.dist(p, q) for p, q in zip(a, b))
-    print("%s: %s, frame %d: max vertex distance %.3g m" % (scene, os.path.basename(path), frames, distance))
+    print("%s: %s, frame %d: max vertex distance %.3g m"
+          % (scene, os.path.basename(path), frames, distance))
 PYTHON
 done
 
