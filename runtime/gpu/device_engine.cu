@@ -2,8 +2,8 @@
 // has a fixed order (per node over its sorted corners, eight (or four) ways then a fixed
 // butterfly; per handle over fixed segments, each reduced in a fixed tree, then in segment order;
 // per row of S^-1 in fixed warp reductions, then in warp order): a step's result does not depend
-// on the scheduling. The one
-// atomic counter (per handle) decides which block adds the handle's segments, not their order.
+// on the scheduling. The one atomic counter (per handle) decides which block adds the handle's
+// segments, not their order.
 
 #include "runtime/gpu/device_engine.hpp"
 
