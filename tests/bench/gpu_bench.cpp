@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -92,7 +93,7 @@ constexpr Variant variants[] = {
 
 /// One GPU variant on `model`: its line of the table, and its profiled phases.
 void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after_3, double cpu_ms,
-    int steps, int rounds, const Variant& variant)
+    int steps, int rounds, const Variant& variant, bool first)
 {
     setenv("MAT_CUDA_NODE_GROUP", variant.group, 1);
     setenv("MAT_CUDA_SOLVE_WARPS", variant.warps, 1);
@@ -101,7 +102,7 @@ void bench_gpu(const Model& model, SolverOptions options, const State& cpu_after
     options.device = Device::cuda;
     const std::unique_ptr<PdSolver> gpu = make_solver(SolverKind::semi_reduced, model, options);
     DeviceSemiStep& device = *gpu->device();
-    if (&variant == &variants[0])
+    if (first)
         std::printf("device: %s\n", device.description().c_str());
     const MatX3& rest = model.rest_positions();
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
@@ -166,9 +167,12 @@ void bench(const std::string& path, int steps, int rounds, const std::string& on
     std::printf("%-10s%10s%10s%10s%10s%12s%12s | gpu phases ms/step, profiled: local, gather, "
                 "B^T y, solve, reconstruct, begin/end\n",
         "variant", "cpu ms", "gpu ms", "gpu+sync", "cpu/gpu", "local ns", "vs cpu");
+    bool first = true;
     for (const Variant& variant : variants)
-        if (only.empty() || only == variant.name)
-            bench_gpu(model, options, after_3, median(cpu_ms), steps, rounds, variant);
+        if (only.empty() || only == variant.name) {
+            bench_gpu(model, options, after_3, median(cpu_ms), steps, rounds, variant, first);
+            first = false;
+        }
 }
 
 } // namespace
@@ -187,6 +191,16 @@ int main(int argc, char** argv)
             only = argv[++a];
         else
             bakes.push_back(arg);
+    }
+    const bool known = only.empty()
+        || std::any_of(std::begin(variants), std::end(variants),
+            [&](const Variant& v) { return only == v.name; });
+    if (!known) {
+        std::fprintf(stderr, "gpu_bench: unknown --variant %s; the variants:", only.c_str());
+        for (const Variant& v : variants)
+            std::fprintf(stderr, " %s", v.name);
+        std::fprintf(stderr, "\n");
+        return 2;
     }
     if (bakes.empty() || steps < 1 || rounds < 1) {
         std::fprintf(stderr,
