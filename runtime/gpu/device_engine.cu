@@ -183,11 +183,6 @@ namespace {
         return value;
     }
 
-    int node_blocks(int n, int group)
-    {
-        return (n * group + block_size - 1) / block_size;
-    }
-
     /// `Group` threads per node: y = base + its corners' shares (corner j to thread j mod Group).
     template <int Group>
     __global__ void gather_kernel(int n, const int* __restrict__ offsets,
@@ -581,7 +576,7 @@ struct Engine::Impl {
     }
     void launch_gather()
     {
-        launch(node_group == 8 ? gather_kernel<8> : gather_kernel<4>, node_blocks(n, node_group),
+        launch(node_group == 8 ? gather_kernel<8> : gather_kernel<4>, blocks_for(n * node_group),
             stream, n, incident_offsets, incident_corners, shares, base, y);
     }
     void launch_transpose()
@@ -604,7 +599,7 @@ struct Engine::Impl {
     void launch_reconstruct()
     {
         launch(node_group == 8 ? reconstruct_kernel<8> : reconstruct_kernel<4>,
-            node_blocks(n, node_group), stream, n, centers, scales, handle_offsets, handle_terms,
+            blocks_for(n * node_group), stream, n, centers, scales, handle_offsets, handle_terms,
             node_entry_offsets, node_entry_handles, node_entry_weights, rest, q, x);
     }
     void iterate()
