@@ -14,8 +14,8 @@
 #                    is reported as the reference's own error,
 #   full-space PD:   at each of FULL_ITERATIONS,
 #   reduced methods: each of REDUCED_METHODS (SOLVER:QUADRATIC) on each handle count of HANDLES
-#                    at the scene's 10 iterations (hyper is used only once mat-run accepts
-#                    --solver hyper),
+#                    at each of REDUCED_ITERATIONS (default the scene's 10; a count other than
+#                    10 is its own series),
 #   Anderson:        full-space PD with solver.acceleration "anderson" at each of
 #                    ANDERSON_ITERATIONS, and each of ANDERSON_METHODS (SOLVER:QUADRATIC) on each
 #                    handle count at 10 iterations (docs/method.md, "Accelerated iterations"),
@@ -34,8 +34,12 @@
 #                                            own charts and its own section of benchmarks.md
 #                                            (between <!-- MARKER:begin --> and <!-- MARKER:end -->)
 # Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_TOLERANCE, REF_ITERATIONS,
-# FULL_ITERATIONS, HANDLES, REDUCED_METHODS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES, THREADS
-# (default 1), TET_SIZE (0.04), CHARTS_DIR (docs/charts, relative to the repository), MARKER
+# REF_ACCELERATION (none; "anderson" converges the reference in fewer iterations), FULL_ITERATIONS,
+# HANDLES, REDUCED_METHODS, REDUCED_ITERATIONS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES
+# (NAME:SURFACE[:TET_SIZE] entries), THREADS (default 1), TET_SIZE (0.04, for a scene without its
+# own), DURATION (the scenes' own 1.5 s unless set), MEDIAL_QUERY_BOUND (mat-bake's default unless
+# set: many spheres need more), QUADRATIC_MAX_HANDLES (quadratic bakes only up to this many
+# handles; default all), CHARTS_DIR (docs/charts, relative to the repository), MARKER
 # (charts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -55,22 +59,29 @@ done
 # to a tolerance"); the last full-space point (200 iterations) shows how far a fixed count is.
 REF_TOLERANCE="${REF_TOLERANCE:-1e-9}"
 REF_ITERATIONS="${REF_ITERATIONS:-3000}"
+REF_ACCELERATION="${REF_ACCELERATION:-none}"
 FULL_ITERATIONS="${FULL_ITERATIONS:-1 2 5 10 20 50 100 200}"
 HANDLES="${HANDLES:-4 8 16 24}"
 REDUCED_METHODS="${REDUCED_METHODS:-semi:none semi:all hyper:none hyper:all}"
+REDUCED_ITERATIONS="${REDUCED_ITERATIONS:-10}"
 ANDERSON_ITERATIONS="${ANDERSON_ITERATIONS:-5 10 15 20}"
 ANDERSON_METHODS="${ANDERSON_METHODS:-semi:all hyper:all}"
-# scene:surface (relative to the repository), baked with tets of TET_SIZE of the diagonal.
+# scene:surface[:tet size] (surface relative to the repository), baked with tets of that size of
+# the diagonal (TET_SIZE where none is given).
 SCENES="${SCENES:-cantilever:samples/rounded_bar/rounded_bar.obj soft_drop:samples/torus/torus.obj twisting_limb:samples/capsule/capsule.obj}"
 TET_SIZE="${TET_SIZE:-0.04}"
+DURATION="${DURATION:-}"
+MEDIAL_QUERY_BOUND="${MEDIAL_QUERY_BOUND:-}"
+QUADRATIC_MAX_HANDLES="${QUADRATIC_MAX_HANDLES:-}"
 
 # Reduced solvers this mat-run has (hyper slots in once `--solver hyper` is accepted).
 solver_available() {
     "$run" --help | grep -A1 -- '--solver' | grep -q "$1"
 }
-method_label() { # SOLVER QUADRATIC [ACCELERATION]
+method_label() { # SOLVER QUADRATIC [ACCELERATION [ITERATIONS]]
     local name suffix=""
-    [ "${3:-none}" = anderson ] && suffix=" + Anderson"
+    if [ "${3:-none}" = anderson ]; then suffix=" + Anderson"; fi
+    if [ "${4:-10}" != 10 ]; then suffix="$suffix at $4 iterations"; fi
     case "$1" in
         semi) name="semi-reduced PD" ;;
         hyper) name="hyper-reduced PD" ;;
@@ -93,13 +104,17 @@ read_stats() {
 
 # scene_copy SCENE_JSON BAKE ITERATIONS OUT [ACCELERATION [TOLERANCE [PROJECTIONS]]]: the scene
 # with its bake and iterations replaced (and solver.acceleration, time.tolerance and
-# solver.projections set).
+# solver.projections set, and time.duration if DURATION is).
 scene_copy() {
-    sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" \
+    local duration=""
+    if [ -n "$DURATION" ]; then duration="s|\"duration\": *[0-9.eE+-]*|\"duration\": $DURATION|"; fi
+    sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" -e "${duration:-s|^\$||}" \
         -e "s|\"iterations\": *[0-9]*|\"iterations\": $3, \"tolerance\": ${6:-0}|" \
         -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\", \"projections\": \"${7:-fast}\" }, \"output\":|" \
         "$1" > "$4"
     grep -q "\"bake\": \"$2\"" "$4" || { echo "make_charts: could not set the bake in $4" >&2; exit 1; }
+    [ -z "$DURATION" ] || grep -q "\"duration\": $DURATION" "$4" \
+        || { echo "make_charts: could not set the duration in $4" >&2; exit 1; }
 }
 
 mkdir -p "$work"
@@ -111,20 +126,37 @@ if [ -n "${CHARTS_ONLY:-}" ]; then
 else
 echo "scene,method,parameter,value,ms_per_step,rms_percent,max_percent" > "$csv.tmp"
 for entry in $SCENES; do
-    scene="${entry%%:*}"; surface="$root/${entry#*:}"
+    IFS=: read -r scene surface tet_size <<< "$entry"
+    surface="$root/$surface"; tet_size="${tet_size:-$TET_SIZE}"
     json="$root/docs/charts/$scene.json"
     dir="$work/$scene"
     mkdir -p "$dir"
     echo "make_charts: $scene"
-    # Bakes: every handle count, linear and quadratic. A count the surface cannot carry (the
-    # bake reports a rank-deficient basis) is left out with a note.
+    # Bakes: every handle count, linear and quadratic, from one medial mesh per count
+    # (`mat-bake medial`: the same mesh as `mat-bake --spheres N`, generated once). A count the
+    # surface cannot carry (the generator stops, or the bake reports a rank-deficient basis) is
+    # left out with a note.
     baked=""
     for n in $HANDLES; do
+        medial="$dir/medial_$n.ma"
+        if [ ! -s "$medial" ] || [ "$medial" -ot "$surface" ]; then
+            if ! "$bake" medial "$surface" --spheres "$n" --samples 5000 -o "$medial" \
+                ${MEDIAL_QUERY_BOUND:+--medial-query-bound "$MEDIAL_QUERY_BOUND"} \
+                > "$dir/medial_$n.log" 2>&1; then
+                echo "make_charts:   $n handles left out: $(tail -1 "$dir/medial_$n.log")"
+                continue
+            fi
+        fi
         for q in none all; do
-            out="$dir/bake_${TET_SIZE}_${n}_$q.h5"
-            if [ ! -s "$out" ] || [ "$out" -ot "$surface" ]; then
-                if ! "$bake" "$surface" --spheres "$n" --samples 5000 --tet-size "$TET_SIZE" \
-                    --quadratic "$q" -o "$out" --log-level warn > "$dir/bake_${n}_$q.log" 2>&1; then
+            if [ "$q" = all ] && [ -n "$QUADRATIC_MAX_HANDLES" ] && [ "$n" -gt "$QUADRATIC_MAX_HANDLES" ]; then
+                echo "make_charts:   $n quadratic handles left out: over QUADRATIC_MAX_HANDLES ($QUADRATIC_MAX_HANDLES; $((10 * n)) basis columns, a dense reduced system of that size)"
+                continue
+            fi
+            out="$dir/bake_${tet_size}_${n}_$q.h5"
+            if [ ! -s "$out" ] || [ "$out" -ot "$medial" ]; then
+                if ! "$bake" "$surface" --medial "$medial" --tet-size "$tet_size" \
+                    --quadratic "$q" -o "$out" --threads "$threads" --log-level warn \
+                    > "$dir/bake_${n}_$q.log" 2>&1; then
                     echo "make_charts:   $n handles ($q quadratic) left out: $(tail -1 "$dir/bake_${n}_$q.log")"
                     continue
                 fi
@@ -134,13 +166,15 @@ for entry in $SCENES; do
     done
     first="$(echo $baked | cut -d' ' -f1)"
     [ -n "$first" ] || { echo "make_charts: $scene: no bake succeeded" >&2; exit 1; }
-    full_bake="$dir/bake_${TET_SIZE}_$first.h5"
+    full_bake="$dir/bake_${tet_size}_$first.h5"
+    tets="$(awk '/^tets:/ { print $2; exit }' "$dir/bake_$first.log")"
 
     # The reference (full-space to REF_TOLERANCE), written as h5 by the scene's own output.
     # It is kept between runs of this script while the scene, the bake and mat-run are older.
-    ref="reference_${REF_TOLERANCE}_$REF_ITERATIONS"
+    ref="reference_${REF_TOLERANCE}_${REF_ITERATIONS}_$REF_ACCELERATION"
     reference="$dir/$ref/trajectory.h5"
-    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$ref.json" none "$REF_TOLERANCE" exact
+    scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$ref.json" "$REF_ACCELERATION" \
+        "$REF_TOLERANCE" exact
     if [ ! -s "$reference" ] || [ ! -s "$dir/$ref.stats.json" ] || [ "$reference" -ot "$json" ] \
         || [ "$reference" -ot "$full_bake" ] || [ "$reference" -ot "$run" ]; then
         "$run" "$dir/$ref.json" -o "$dir/$ref" --solver full --threads "$threads" \
@@ -153,15 +187,16 @@ for entry in $SCENES; do
         /^   "iterations":/ { gsub(/[",]/, ""); sum += $2 }
         END { printf "%.0f", sum / steps }' "$dir/$ref.stats.json")"
     loose="$(awk -v t="$REF_TOLERANCE" 'BEGIN { printf "%g", 10 * t }')"
-    check="reference_loose_${loose}_$REF_ITERATIONS" # kept, like the reference, while current
+    check="reference_loose_${loose}_${REF_ITERATIONS}_$REF_ACCELERATION" # kept, like the reference
     if [ ! -s "$dir/$check.stats.json" ] || [ "$dir/$check.stats.json" -ot "$reference" ]; then
-        scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$check.json" none "$loose" exact
+        scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$check.json" "$REF_ACCELERATION" \
+            "$loose" exact
         "$run" "$dir/$check.json" -o "$dir/$check" --solver full --threads "$threads" \
             --log-level warn --reference "$reference" --stats "$dir/$check.stats.json" \
             > "$dir/$check.log"
     fi
     loose_rms="$(read_stats "$dir/$check.stats.json" | awk '{ printf "%.2g", $2 }')"
-    ref_iterations="$ref_iterations $scene $mean_iterations iterations per step, $loose_rms% at $loose;"
+    ref_iterations="$ref_iterations $scene ($tets tets, size $tet_size) $mean_iterations iterations per step, $loose_rms% at $loose;"
     echo "make_charts:   reference: $mean_iterations iterations per step on average; at $loose it is $loose_rms% RMS off"
 
     # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME [ACCELERATION]
@@ -183,31 +218,38 @@ for entry in $SCENES; do
     for it in $ANDERSON_ITERATIONS; do
         run_one "full-space PD + Anderson" iterations "$it" full "$full_bake" "$it" "full_anderson_$it" anderson
     done
-    reduced_runs() { # METHODS ACCELERATION
-        local method solver q n
-        for method in $1; do
+    reduced_runs() { # METHODS ACCELERATION ITERATIONS...
+        local method solver q n it methods="$1" acceleration="$2" name
+        shift 2
+        for method in $methods; do
             solver="${method%%:*}"; q="${method#*:}"
             if ! solver_available "$solver"; then
                 echo "make_charts:   $(method_label "$solver" "$q"): mat-run has no --solver $solver, left out"
                 continue
             fi
-            for n in $HANDLES; do
-                case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
-                run_one "$(method_label "$solver" "$q" "$2")" handles "$n" "$solver" \
-                    "$dir/bake_${TET_SIZE}_${n}_$q.h5" 10 "${solver}_${n}_${q}_$2" "$2"
+            for it in "$@"; do
+                for n in $HANDLES; do
+                    case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
+                    name="${solver}_${n}_${q}_$acceleration"
+                    [ "$it" = 10 ] || name="${name}_$it"
+                    run_one "$(method_label "$solver" "$q" "$acceleration" "$it")" handles "$n" \
+                        "$solver" "$dir/bake_${tet_size}_${n}_$q.h5" "$it" "$name" "$acceleration"
+                done
             done
         done
     }
-    reduced_runs "$REDUCED_METHODS" none
-    reduced_runs "$ANDERSON_METHODS" anderson
+    reduced_runs "$REDUCED_METHODS" none $REDUCED_ITERATIONS
+    reduced_runs "$ANDERSON_METHODS" anderson 10
 done
 mv "$csv.tmp" "$csv"
 fi
 
 # The charts and the table; the table replaces docs/benchmarks.md's between the markers.
 mkdir -p "$root/$charts_dir"
+ref_label=""
+if [ "$REF_ACCELERATION" = anderson ]; then ref_label=", Anderson-accelerated"; fi
 "$chart" "$csv" "$root/$charts_dir" "$work/table.md" --link-dir "${charts_dir#docs/}" \
-    --note "reference: full-space PD, exact projections, converged per step to an estimated $REF_TOLERANCE of the diagonal (time.tolerance;${ref_iterations%;}); tet size $TET_SIZE of the diagonal; ms per step with $threads thread(s)"
+    --note "reference: full-space PD, exact projections$ref_label, converged per step to an estimated $REF_TOLERANCE of the diagonal (time.tolerance;${ref_iterations%;}); ms per step with $threads thread(s)"
 doc="$root/docs/benchmarks.md"
 grep -q "^<!-- $marker:begin -->\$" "$doc" && grep -q "^<!-- $marker:end -->\$" "$doc" \
     || { echo "make_charts: $doc has no <!-- $marker:begin --> / <!-- $marker:end --> lines" >&2; exit 1; }

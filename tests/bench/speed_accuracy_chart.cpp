@@ -157,6 +157,34 @@ namespace {
     const char* const colors[] = { "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
         "#e377c2", "#17becf" };
 
+    /// Series s's marker kind: the colours repeat every 8 series, the kinds every 4, so series 8
+    /// to 31 shift the kind to stay distinct from those with their colour.
+    int marker_kind(std::size_t s)
+    {
+        return int(s + s / std::size(colors));
+    }
+
+    /// The scene's points whose `which` error (0: RMS, 1: max) no other point beats at the same
+    /// or less time: the Pareto front of error against ms per step, by increasing time (and so
+    /// decreasing error). Points without a positive time and error are not on it.
+    std::vector<const Point*> pareto_front(const SceneResults& scene, int which)
+    {
+        const auto error = [which](const Point* p) { return which == 0 ? p->rms : p->max; };
+        std::vector<const Point*> points;
+        for (const Series& series : scene.series)
+            for (const Point& p : series.points)
+                if (p.ms > 0.0 && error(&p) > 0.0)
+                    points.push_back(&p);
+        std::stable_sort(points.begin(), points.end(), [&](const Point* a, const Point* b) {
+            return a->ms < b->ms || (a->ms == b->ms && error(a) < error(b));
+        });
+        std::vector<const Point*> front;
+        for (const Point* p : points)
+            if (front.empty() || error(p) < error(front.back()))
+                front.push_back(p);
+        return front;
+    }
+
     /// An SVG marker of kind `kind` (circle, square, triangle, diamond, ...) centred at x, y.
     std::string marker(int kind, double x, double y, const char* color)
     {
@@ -223,6 +251,25 @@ namespace {
                            "text-anchor=\"middle\">error (% of the bounding-box diagonal)"
                            "</text>\n",
             left - 48, 0.5 * (top + bottom));
+        // The Pareto front under the series: a wide band stepping down from each of its points
+        // to the next (the least error reached within a time), on to the right edge.
+        {
+            const std::vector<const Point*> front = pareto_front(scene, which);
+            std::string path;
+            double last_y = 0.0;
+            for (const Point* p : front) {
+                const double px = x(p->ms);
+                const double py = std::min(y(which == 0 ? p->rms : p->max), bottom);
+                path += path.empty() ? fmt::format("M{:.1f},{:.1f}", px, py)
+                                     : fmt::format(" H{:.1f} V{:.1f}", px, py);
+                last_y = py;
+            }
+            if (!path.empty())
+                svg += fmt::format("<path class=\"pareto\" d=\"{} H{:.1f}\" fill=\"none\" "
+                                   "stroke=\"#f5c04a\" stroke-opacity=\"0.55\" stroke-width=\"9\" "
+                                   "stroke-linejoin=\"round\"/>\n",
+                    path, right, last_y);
+        }
         // Series: a polyline through the points in order, a marker and the value at each.
         int hidden = 0;
         for (std::size_t s = 0; s < scene.series.size(); ++s) {
@@ -238,7 +285,7 @@ namespace {
                 }
                 const double px = x(p.ms), py = y(error);
                 path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "M" : " L", px, py);
-                marks += marker(int(s), px, py, color);
+                marks += marker(marker_kind(s), px, py, color);
                 marks += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"10\" "
                                      "fill=\"{}\">{}</text>\n",
                     px + 5, py - 5, color, xml_escape(p.value));
@@ -280,7 +327,7 @@ namespace {
         y_min = std::max(y_min, y_max * std::pow(10.0, -decades));
         const double panel_width = 400, panel_height = 320, margin_left = 80, gap = 90;
         const double top = 60, legend_top = top + panel_height + 60;
-        const double legend_height = 20.0 * double(scene.series.size()) + 10;
+        const double legend_height = 20.0 * double(scene.series.size() + 1) + 10;
         const double width = margin_left + 2 * panel_width + gap + 30;
         const double height = legend_top + legend_height + 10;
         const LogAxis y = LogAxis::covering(y_min, y_max, top + panel_height, top);
@@ -309,11 +356,18 @@ namespace {
             svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
                                "stroke=\"{}\" stroke-width=\"1.5\"/>\n",
                 margin_left, ly, margin_left + 30, ly, color);
-            svg += marker(int(s), margin_left + 15, ly, color);
+            svg += marker(marker_kind(s), margin_left + 15, ly, color);
             svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\">{} (labels: {})</text>\n",
                 margin_left + 40, ly + 4, xml_escape(scene.series[s].method),
                 xml_escape(scene.series[s].parameter));
         }
+        const double front_y = legend_top + 20.0 * double(scene.series.size()) + 10;
+        svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                           "stroke=\"#f5c04a\" stroke-opacity=\"0.55\" stroke-width=\"9\"/>\n"
+                           "<text x=\"{:.1f}\" y=\"{:.1f}\">Pareto front: the least error "
+                           "reached within each time per step (no setting is both faster and "
+                           "more accurate than its corners)</text>\n",
+            margin_left, front_y, margin_left + 30, front_y, margin_left + 40, front_y + 4);
         svg += "</svg>\n";
         return svg;
     }
@@ -371,12 +425,16 @@ namespace {
             md += "Time to accuracy: the fastest setting of each method whose RMS error is at most "
                   "the target, ms per step (setting).\n\n"
                 + time_to_accuracy(scene) + "\nEvery point:\n\n";
-            md += "| method | setting | ms/step | RMS % | max % |\n| --- | --- | ---: | ---: | "
-                  "---: |\n";
+            md += "\"front\": on the Pareto front of RMS error against time (no other point is "
+                  "as fast or faster with as little error or less).\n\n";
+            md += "| method | setting | ms/step | RMS % | max % | front |\n| --- | --- | ---: | "
+                  "---: | ---: | --- |\n";
+            const std::vector<const Point*> front = pareto_front(scene, 0);
             for (const Series& series : scene.series)
                 for (const Point& p : series.points)
-                    md += fmt::format("| {} | {} {} | {:.3g} | {:.3g} | {:.3g} |\n", series.method,
-                        p.value, series.parameter, p.ms, p.rms, p.max);
+                    md += fmt::format("| {} | {} {} | {:.3g} | {:.3g} | {:.3g} | {} |\n",
+                        series.method, p.value, series.parameter, p.ms, p.rms, p.max,
+                        std::find(front.begin(), front.end(), &p) != front.end() ? "yes" : "");
         }
         return md;
     }
