@@ -36,11 +36,12 @@
 # Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_TOLERANCE, REF_ITERATIONS,
 # REF_ACCELERATION (none; "anderson" converges the reference in fewer iterations), FULL_ITERATIONS,
 # HANDLES, REDUCED_METHODS, REDUCED_ITERATIONS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES
-# (NAME:SURFACE[:TET_SIZE] entries), THREADS (default 1), TET_SIZE (0.04, for a scene without its
-# own), DURATION (the scenes' own 1.5 s unless set), MEDIAL_QUERY_BOUND (mat-bake's default unless
+# (NAME:SURFACE[:TET_SIZE] entries), THREADS (default 1), REF_THREADS (the untimed reference runs';
+# default THREADS), TET_SIZE (0.04, for a scene without its own), DURATION (the scenes' own 1.5 s unless set), MEDIAL_QUERY_BOUND (mat-bake's default unless
 # set: many spheres need more), QUADRATIC_MAX_HANDLES (quadratic bakes only up to this many
-# handles; default all), CHARTS_DIR (docs/charts, relative to the repository), MARKER
-# (charts).
+# handles; default all), GPU_METHODS (semi:QUADRATIC entries also run with --device cuda, their ms
+# per step the GPU step's with the positions brought back every frame; default none), CHARTS_DIR
+# (docs/charts, relative to the repository), MARKER (charts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "${1:-$root/build}" && pwd)"
@@ -51,6 +52,7 @@ charts_dir="${CHARTS_DIR:-docs/charts}"
 marker="${MARKER:-charts}"
 work="${CHARTS_WORK:-$build/$(basename "$charts_dir")}"
 threads="${THREADS:-1}"
+ref_threads="${REF_THREADS:-$threads}" # the references' runs are not timed
 for tool in "$bake" "$run" "$chart"; do
     [ -x "$tool" ] || { echo "make_charts: no $tool (build it, or pass the build directory)" >&2; exit 1; }
 done
@@ -73,6 +75,7 @@ TET_SIZE="${TET_SIZE:-0.04}"
 DURATION="${DURATION:-}"
 MEDIAL_QUERY_BOUND="${MEDIAL_QUERY_BOUND:-}"
 QUADRATIC_MAX_HANDLES="${QUADRATIC_MAX_HANDLES:-}"
+GPU_METHODS="${GPU_METHODS:-}" # e.g. "semi:none semi:all" (a -DMAT_CUDA=ON build and a GPU)
 
 # Reduced solvers this mat-run has (hyper slots in once `--solver hyper` is accepted).
 solver_available() {
@@ -95,7 +98,7 @@ read_stats() {
     awk '
         /"ms_per_step": \{/ { inside = 1; next }
         inside && /\}/ { inside = 0 }
-        inside && /"(local|rhs|solve|reconstruct|contact|acceleration)":/ { gsub(/[",]/, ""); ms += $2 }
+        inside && /"(local|rhs|solve|reconstruct|contact|acceleration|device)":/ { gsub(/[",]/, ""); ms += $2 }
         /"rms_percent":/ { gsub(/[",]/, ""); rms = $2 }
         /"max_percent":/ { gsub(/[",]/, ""); max = $2 }
         END { if (rms == "" || max == "") exit 1; printf "%.6g %.6g %.6g\n", ms, rms, max }
@@ -177,7 +180,7 @@ for entry in $SCENES; do
         "$REF_TOLERANCE" exact
     if [ ! -s "$reference" ] || [ ! -s "$dir/$ref.stats.json" ] || [ "$reference" -ot "$json" ] \
         || [ "$reference" -ot "$full_bake" ] || [ "$reference" -ot "$run" ]; then
-        "$run" "$dir/$ref.json" -o "$dir/$ref" --solver full --threads "$threads" \
+        "$run" "$dir/$ref.json" -o "$dir/$ref" --solver full --threads "$ref_threads" \
             --log-level warn --stats "$dir/$ref.stats.json" > "$dir/$ref.log"
     fi
     # Its mean iterations per step (one body: the frames' iterations over the steps), and its
@@ -191,7 +194,7 @@ for entry in $SCENES; do
     if [ ! -s "$dir/$check.stats.json" ] || [ "$dir/$check.stats.json" -ot "$reference" ]; then
         scene_copy "$json" "$full_bake" "$REF_ITERATIONS" "$dir/$check.json" "$REF_ACCELERATION" \
             "$loose" exact
-        "$run" "$dir/$check.json" -o "$dir/$check" --solver full --threads "$threads" \
+        "$run" "$dir/$check.json" -o "$dir/$check" --solver full --threads "$ref_threads" \
             --log-level warn --reference "$reference" --stats "$dir/$check.stats.json" \
             > "$dir/$check.log"
     fi
@@ -199,11 +202,13 @@ for entry in $SCENES; do
     ref_iterations="$ref_iterations $scene ($tets tets, size $tet_size) $mean_iterations iterations per step, $loose_rms% at $loose;"
     echo "make_charts:   reference: $mean_iterations iterations per step on average; at $loose it is $loose_rms% RMS off"
 
-    # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME [ACCELERATION]
+    # run_one METHOD PARAMETER VALUE SOLVER BAKE ITERATIONS NAME [ACCELERATION [DEVICE]]
     run_one() {
         scene_copy "$json" "$5" "$6" "$dir/$7.json" "${8:-none}"
-        "$run" "$dir/$7.json" -o "$dir/$7" --solver "$4" --threads "$threads" --log-level warn \
-            --reference "$reference" --stats "$dir/$7.stats.json" > "$dir/$7.log"
+        "$run" "$dir/$7.json" -o "$dir/$7" --solver "$4" --device "${9:-cpu}" \
+            --threads "$threads" --log-level warn \
+            --reference "$reference" --stats "$dir/$7.stats.json" > "$dir/$7.log" 2>&1 \
+            || { echo "make_charts: $dir/$7.log: $(tail -1 "$dir/$7.log")" >&2; exit 1; }
         local stats
         stats="$(read_stats "$dir/$7.stats.json")" \
             || { echo "make_charts: $dir/$7.stats.json: no timings or reference error" >&2; exit 1; }
@@ -240,6 +245,17 @@ for entry in $SCENES; do
     }
     reduced_runs "$REDUCED_METHODS" none $REDUCED_ITERATIONS
     reduced_runs "$ANDERSON_METHODS" anderson 10
+    # The GPU step (semi-reduced, plain iterations: docs/gpu.md), where asked for.
+    for method in $GPU_METHODS; do
+        q="${method#*:}"
+        for it in $REDUCED_ITERATIONS; do
+            for n in $HANDLES; do
+                case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
+                run_one "$(method_label semi "$q" none "$it") on the GPU" handles "$n" semi \
+                    "$dir/bake_${tet_size}_${n}_$q.h5" "$it" "gpu_${n}_${q}_$it" none cuda
+            done
+        done
+    done
 done
 mv "$csv.tmp" "$csv"
 fi
