@@ -36,12 +36,14 @@
 # Environment overrides: MAT_BAKE, MAT_RUN, MAT_CHART (tool paths), REF_TOLERANCE, REF_ITERATIONS,
 # REF_ACCELERATION (none; "anderson" converges the reference in fewer iterations), FULL_ITERATIONS,
 # HANDLES, REDUCED_METHODS, REDUCED_ITERATIONS, ANDERSON_ITERATIONS, ANDERSON_METHODS, SCENES
-# (NAME:SURFACE[:TET_SIZE] entries), THREADS (default 1), REF_THREADS (the untimed reference runs';
-# default THREADS), TET_SIZE (0.04, for a scene without its own), DURATION (the scenes' own 1.5 s unless set), MEDIAL_QUERY_BOUND (mat-bake's default unless
-# set: many spheres need more), QUADRATIC_MAX_HANDLES (quadratic bakes only up to this many
-# handles; default all), GPU_METHODS (semi:QUADRATIC entries also run with --device cuda, their ms
-# per step the GPU step's with the positions brought back every frame; default none), CHARTS_DIR
-# (docs/charts, relative to the repository), MARKER (charts).
+# (NAME:SURFACE[:TET_SIZE[:COUNTS]] entries, COUNTS a comma list of handle counts replacing
+# HANDLES for the scene), THREADS (default 1), REF_THREADS (the untimed reference runs';
+# default THREADS), TET_SIZE (0.04, for a scene without its own), DURATION (the scenes' own 1.5 s
+# unless set), MEDIAL_QUERY_BOUND (mat-bake's default unless set: many spheres need more),
+# QUADRATIC_MAX_HANDLES (quadratic bakes only up to this many handles; default all), GPU_METHODS
+# (semi:QUADRATIC entries also run with --device cuda, their ms per step the GPU step's with the
+# positions brought back every frame; default none), CHARTS_DIR (docs/charts, relative to the
+# repository), MARKER (charts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "${1:-$root/build}" && pwd)"
@@ -68,8 +70,9 @@ REDUCED_METHODS="${REDUCED_METHODS:-semi:none semi:all hyper:none hyper:all}"
 REDUCED_ITERATIONS="${REDUCED_ITERATIONS:-10}"
 ANDERSON_ITERATIONS="${ANDERSON_ITERATIONS:-5 10 15 20}"
 ANDERSON_METHODS="${ANDERSON_METHODS:-semi:all hyper:all}"
-# scene:surface[:tet size] (surface relative to the repository), baked with tets of that size of
-# the diagonal (TET_SIZE where none is given).
+# scene:surface[:tet size[:handle counts]] (surface relative to the repository), baked with tets
+# of that size of the diagonal (TET_SIZE where none is given) and those handle counts (a comma
+# list; HANDLES where none is given).
 SCENES="${SCENES:-cantilever:samples/rounded_bar/rounded_bar.obj soft_drop:samples/torus/torus.obj twisting_limb:samples/capsule/capsule.obj}"
 TET_SIZE="${TET_SIZE:-0.04}"
 DURATION="${DURATION:-}"
@@ -129,8 +132,9 @@ if [ -n "${CHARTS_ONLY:-}" ]; then
 else
 echo "scene,method,parameter,value,ms_per_step,rms_percent,max_percent" > "$csv.tmp"
 for entry in $SCENES; do
-    IFS=: read -r scene surface tet_size <<< "$entry"
+    IFS=: read -r scene surface tet_size scene_handles <<< "$entry"
     surface="$root/$surface"; tet_size="${tet_size:-$TET_SIZE}"
+    handles="${scene_handles//,/ }"; handles="${handles:-$HANDLES}"
     json="$root/docs/charts/$scene.json"
     dir="$work/$scene"
     mkdir -p "$dir"
@@ -140,7 +144,7 @@ for entry in $SCENES; do
     # surface cannot carry (the generator stops, or the bake reports a rank-deficient basis) is
     # left out with a note.
     baked=""
-    for n in $HANDLES; do
+    for n in $handles; do
         medial="$dir/medial_$n.ma"
         if [ ! -s "$medial" ] || [ "$medial" -ot "$surface" ]; then
             if ! "$bake" medial "$surface" --spheres "$n" --samples 5000 -o "$medial" \
@@ -233,7 +237,7 @@ for entry in $SCENES; do
                 continue
             fi
             for it in "$@"; do
-                for n in $HANDLES; do
+                for n in $handles; do
                     case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
                     name="${solver}_${n}_${q}_$acceleration"
                     [ "$it" = 10 ] || name="${name}_$it"
@@ -249,7 +253,7 @@ for entry in $SCENES; do
     for method in $GPU_METHODS; do
         q="${method#*:}"
         for it in $REDUCED_ITERATIONS; do
-            for n in $HANDLES; do
+            for n in $handles; do
                 case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
                 run_one "$(method_label semi "$q" none "$it") on the GPU" handles "$n" semi \
                     "$dir/bake_${tet_size}_${n}_$q.h5" "$it" "gpu_${n}_${q}_$it" none cuda
@@ -257,15 +261,17 @@ for entry in $SCENES; do
         done
     done
 done
+ref_label=""
+if [ "$REF_ACCELERATION" = anderson ]; then ref_label=", Anderson-accelerated"; fi
+# The charts' note, kept with the results for CHARTS_ONLY.
+echo "reference: full-space PD, exact projections$ref_label, converged per step to an estimated $REF_TOLERANCE of the diagonal (time.tolerance;${ref_iterations%;}); ms per step with $threads thread(s)" > "$work/note.txt"
 mv "$csv.tmp" "$csv"
 fi
 
 # The charts and the table; the table replaces docs/benchmarks.md's between the markers.
 mkdir -p "$root/$charts_dir"
-ref_label=""
-if [ "$REF_ACCELERATION" = anderson ]; then ref_label=", Anderson-accelerated"; fi
 "$chart" "$csv" "$root/$charts_dir" "$work/table.md" --link-dir "${charts_dir#docs/}" \
-    --note "reference: full-space PD, exact projections$ref_label, converged per step to an estimated $REF_TOLERANCE of the diagonal (time.tolerance;${ref_iterations%;}); ms per step with $threads thread(s)"
+    --note "$(cat "$work/note.txt" 2> /dev/null || true)"
 doc="$root/docs/benchmarks.md"
 grep -q "^<!-- $marker:begin -->\$" "$doc" && grep -q "^<!-- $marker:end -->\$" "$doc" \
     || { echo "make_charts: $doc has no <!-- $marker:begin --> / <!-- $marker:end --> lines" >&2; exit 1; }

@@ -372,6 +372,13 @@ namespace {
         return svg;
     }
 
+    /// Milliseconds as the tables write them: 3 significant digits, whole numbers from 1000 on
+    /// ("1466", not "1.47e+03").
+    std::string ms_text(double ms)
+    {
+        return ms >= 1000.0 ? fmt::format("{:.0f}", ms) : fmt::format("{:.3g}", ms);
+    }
+
     /// RMS error targets of the time-to-accuracy table, % of the diagonal.
     constexpr double accuracy_targets[] = { 5.0, 2.0, 1.0, 0.5 };
 
@@ -396,8 +403,8 @@ namespace {
                 for (const Point& p : series.points)
                     if (p.rms <= accuracy_targets[t] && (!fastest || p.ms < fastest->ms))
                         fastest = &p;
-                md += fastest ? fmt::format(
-                          " {:.3g} ms ({} {}) |", fastest->ms, fastest->value, series.parameter)
+                md += fastest ? fmt::format(" {} ms ({} {}) |", ms_text(fastest->ms),
+                          fastest->value, series.parameter)
                               : std::string(" - |");
                 if (fastest && (!best[t] || fastest->ms < best[t]->ms)) {
                     best[t] = fastest;
@@ -408,8 +415,9 @@ namespace {
         }
         md += "| **fastest** |";
         for (std::size_t t = 0; t < std::size(accuracy_targets); ++t)
-            md += best[t] ? fmt::format(" **{}**, {:.3g} ms |", best_series[t]->method, best[t]->ms)
-                          : std::string(" - |");
+            md += best[t]
+                ? fmt::format(" **{}**, {} ms |", best_series[t]->method, ms_text(best[t]->ms))
+                : std::string(" - |");
         return md + "\n";
     }
 
@@ -432,8 +440,8 @@ namespace {
             const std::vector<const Point*> front = pareto_front(scene, 0);
             for (const Series& series : scene.series)
                 for (const Point& p : series.points)
-                    md += fmt::format("| {} | {} {} | {:.3g} | {:.3g} | {:.3g} | {} |\n",
-                        series.method, p.value, series.parameter, p.ms, p.rms, p.max,
+                    md += fmt::format("| {} | {} {} | {} | {:.3g} | {:.3g} | {} |\n", series.method,
+                        p.value, series.parameter, ms_text(p.ms), p.rms, p.max,
                         std::find(front.begin(), front.end(), &p) != front.end() ? "yes" : "");
         }
         return md;
