@@ -28,11 +28,12 @@
 // contact forces are solved against the step's own response, elastic moment included, and a
 // rotation added after them fights them: a capsule resting on the ground rocked from step to
 // step, and a crib of stiff bars (E = 1e6 Pa) resting on each other went from 1418 to 15050 J.
-// "keep" gives it also to a body that only other stepped bodies push: impacts between free
-// bodies then keep their angular momentum, but such a crib gains energy as above, so it is not
-// the default. (Capping the body's kinetic energy at the larger of its values at the start of
-// the step and without the rotation kept the crib at its energy, still rocking at 3-4 J where
-// it settles to 2e-5 J without, and cost the off-centre impacts their 2%.)
+// "keep" gives it also to a body in contact whose contact island (the stepped bodies that
+// pushed each other in the step, transitively) has no body with pins or pushed by the world
+// (StepReport::world_held): impacts between free bodies then keep their angular momentum, and a
+// pile on the ground, one island held by the ground, settles as without it. It is not the
+// default: in the collision samples it crushed one full-space run of a landing stack
+// (docs/method.md, "Angular momentum").
 
 #include "common/eigen_types.hpp"
 

@@ -447,6 +447,7 @@ void ContactStage::end_step()
             solver->report().contact_impulse.setZero();
             solver->report().contact_moment.setZero();
             solver->report().world_contact = false;
+            solver->report().world_held = false;
         }
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = 0; a < m; ++a) {
@@ -505,6 +506,42 @@ void ContactStage::end_step()
         report.max_penetration
             = std::max(report.max_penetration, -plane.normal.dot(x - plane.point));
     }
+    mark_world_held();
+}
+
+// Contact islands by union-find over the stepped bodies, joined by the contacts that pushed;
+// an island with a body that the world pushed or that has pins is held, every body of it.
+void ContactStage::mark_world_held()
+{
+    std::vector<int>& root = m_island_root;
+    root.resize(m_solvers.size());
+    for (std::size_t b = 0; b < root.size(); ++b)
+        root[b] = static_cast<int>(b);
+    const auto find = [&root](int b) {
+        while (root[static_cast<std::size_t>(b)] != b)
+            b = root[static_cast<std::size_t>(b)]
+                = root[static_cast<std::size_t>(root[static_cast<std::size_t>(b)])];
+        return b;
+    };
+    for (std::size_t a = 0; a < m_records.size(); ++a) {
+        const Record& record = m_records[a];
+        if (record.num_sides == 2 && m_forces.row(static_cast<Index>(a)).squaredNorm() > 0.0) {
+            const int p = find(record.sides[0].body), q = find(record.sides[1].body);
+            root[static_cast<std::size_t>(std::max(p, q))] = std::min(p, q);
+        }
+    }
+    std::vector<char>& held = m_island_held;
+    held.assign(m_solvers.size(), 0);
+    for (std::size_t b = 0; b < m_solvers.size(); ++b) {
+        PdSolver* solver = m_solvers[b];
+        if (solver != nullptr
+            && (solver->report().world_contact || !solver->model().pinned_nodes().empty()))
+            held[static_cast<std::size_t>(find(static_cast<int>(b)))] = 1;
+    }
+    for (std::size_t b = 0; b < m_solvers.size(); ++b)
+        if (m_solvers[b] != nullptr)
+            m_solvers[b]->report().world_held
+                = held[static_cast<std::size_t>(find(static_cast<int>(b)))] != 0;
 }
 
 } // namespace mat

@@ -242,6 +242,8 @@ private:
     /// that has been in a working set, takes its face's outward normal in the kept solutions
     /// (the iterate's positions; docs/method.md, "Planes that follow the iterate").
     void turn_planes();
+    /// Each stepped body's StepReport::world_held, from this step's forces (end_step()).
+    void mark_world_held();
     /// D between contacts c and d: sum over the bodies of both of J_c D_b J_d^T.
     double coupling_between(Index c, Index d);
     // ContactCoupling (runtime/pd/contact_stage_coupling.cpp).
@@ -279,6 +281,8 @@ private:
     int m_sweeps = 0;
     bool m_at_iterate = false; ///< begin_step's
     Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
+    std::vector<int> m_island_root; ///< mark_world_held's union-find, per body
+    std::vector<char> m_island_held; ///< mark_world_held's, per island root
 };
 
 } // namespace mat

@@ -444,11 +444,12 @@ void PdSolver::end_step()
             out.velocities.row(i) = scale * (out.positions.row(i) - in.positions.row(i));
     });
     // Internal forces exert no net moment (runtime/pd/angular_momentum.hpp): kept for a body
-    // without pins that has no contact candidates (free) or that only stepped bodies push (keep).
+    // without pins that has no contact candidates (free) or whose contact island the world
+    // does not hold (keep).
     const bool unpinned = m_model->pinned_nodes().empty();
     if ((m_options.angular_momentum == AngularMomentum::free && unpinned && m_contact_nodes == 0)
         || (m_options.angular_momentum == AngularMomentum::keep && unpinned
-            && !m_report.world_contact))
+            && !m_report.world_held))
         m_angular.apply(m_model->masses(), in.positions, in.velocities, out.positions,
             m_model->time_step(), m_report.contact_impulse, m_report.contact_moment,
             1.0 - m_options.damping, out.velocities);

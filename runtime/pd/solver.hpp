@@ -138,6 +138,10 @@ struct StepReport {
     /// Whether a ground plane or a body that is not stepped (static, kinematic, asleep) pushed
     /// the body in the step.
     bool world_contact = false;
+    /// Whether the body's contact island (the stepped bodies it pushed or was pushed by in the
+    /// step, and theirs, and so on) holds a body with world_contact or pins: the world then
+    /// takes part in the island's angular momentum (AngularMomentum::keep).
+    bool world_held = false;
     /// With acceleration on and no contact candidates: the safeguard's measure of the last
     /// accepted iterate (set by each iterate(): its PD energy, J, or for the hyper-reduced
     /// solver its fixed-point residual), the extrapolated iterates accepted and those the

@@ -243,10 +243,12 @@ namespace {
                 .set_doc("free: an object without pins or contacts in a step ends it with its "
                          "start angular momentum (its internal forces exert no net moment; "
                          "implicit Euler alone loses a few percent per second under spin and "
-                         "vibration); keep: also an object that only other simulated objects "
-                         "push, with the moments of their impulses (kept through impacts "
-                         "between free objects, but stiff objects resting on each other gain "
-                         "energy); "
+                         "vibration); keep: also an object in contact whose contact island "
+                         "(the simulated objects that pushed each other in the step, "
+                         "transitively) has no object pushed by the ground, a static, "
+                         "kinematic or sleeping object, or with pins, with the moments of their "
+                         "impulses (kept through impacts between free objects; a pile on the "
+                         "ground is held and settles as with free); "
                          "integrator: what implicit Euler and the iterations give "
                          "(docs/method.md, \"Angular momentum\"); --device cuda steps keep none"),
             value_key(S::solver, "anderson_window", T::integer, &SolverSettings::anderson_window)

@@ -7,6 +7,7 @@
 # over the last second. Runs every solver mode at E = 1e5 and 1e6 Pa and prints one line each,
 # then exits non-zero if any misses either bound.
 #   tests/bench/pile_settles.sh [BUILD_DIR] [THREADS]
+#   ANGULAR_MOMENTUM=keep tests/bench/pile_settles.sh ...   with that solver.angular_momentum
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="${1:-$root/build}"
@@ -19,7 +20,7 @@ trap 'rm -rf "$work"' EXIT
     --log-level warn > /dev/null
 
 scene() { # scene YOUNGS_MODULUS
-    python3 - "$1" <<'PY'
+    python3 - "$1" "${ANGULAR_MOMENTUM:-}" <<'PY'
 import json, sys
 objects = []
 y = 0.082
@@ -35,7 +36,8 @@ for layer in range(5):
     y += 0.164
 print(json.dumps({"time": {"dt": 0.0333333333, "frames": 90, "iterations": 10},
                   "gravity": [0, -9.81, 0],
-                  "solver": {"collision": "bounded", "collision_friction": 0.5, "sleep_speed": 0},
+                  "solver": dict({"collision": "bounded", "collision_friction": 0.5, "sleep_speed": 0},
+                                 **({"angular_momentum": sys.argv[2]} if sys.argv[2] else {})),
                   "objects": objects,
                   "colliders": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
                                  "friction": 0.5}],
