@@ -112,9 +112,9 @@ read_stats() {
 # with its bake and iterations replaced (and solver.acceleration, time.tolerance and
 # solver.projections set, and time.duration if DURATION is).
 scene_copy() {
-    local duration=""
-    if [ -n "$DURATION" ]; then duration="s|\"duration\": *[0-9.eE+-]*|\"duration\": $DURATION|"; fi
-    sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" -e "${duration:-s|^\$||}" \
+    local duration=()
+    if [ -n "$DURATION" ]; then duration=(-e "s|\"duration\": *[0-9.eE+-]*|\"duration\": $DURATION|"); fi
+    sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" "${duration[@]}" \
         -e "s|\"iterations\": *[0-9]*|\"iterations\": $3, \"tolerance\": ${6:-0}|" \
         -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\", \"projections\": \"${7:-fast}\" }, \"output\":|" \
         "$1" > "$4"
@@ -227,9 +227,11 @@ for entry in $SCENES; do
     for it in $ANDERSON_ITERATIONS; do
         run_one "full-space PD + Anderson" iterations "$it" full "$full_bake" "$it" "full_anderson_$it" anderson
     done
-    reduced_runs() { # METHODS ACCELERATION ITERATIONS...
-        local method solver q n it methods="$1" acceleration="$2" name
-        shift 2
+    # reduced_runs METHODS ACCELERATION DEVICE ITERATIONS...: each method (SOLVER:QUADRATIC) on
+    # each handle count at each iteration count, on the CPU or (DEVICE cuda) the GPU.
+    reduced_runs() {
+        local method solver q n it methods="$1" acceleration="$2" device="$3" name label
+        shift 3
         for method in $methods; do
             solver="${method%%:*}"; q="${method#*:}"
             if ! solver_available "$solver"; then
@@ -241,25 +243,18 @@ for entry in $SCENES; do
                     case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
                     name="${solver}_${n}_${q}_$acceleration"
                     [ "$it" = 10 ] || name="${name}_$it"
-                    run_one "$(method_label "$solver" "$q" "$acceleration" "$it")" handles "$n" \
-                        "$solver" "$dir/bake_${tet_size}_${n}_$q.h5" "$it" "$name" "$acceleration"
+                    label="$(method_label "$solver" "$q" "$acceleration" "$it")"
+                    if [ "$device" = cuda ]; then name="${name}_gpu" label="$label on the GPU"; fi
+                    run_one "$label" handles "$n" "$solver" "$dir/bake_${tet_size}_${n}_$q.h5" \
+                        "$it" "$name" "$acceleration" "$device"
                 done
             done
         done
     }
-    reduced_runs "$REDUCED_METHODS" none $REDUCED_ITERATIONS
-    reduced_runs "$ANDERSON_METHODS" anderson 10
+    reduced_runs "$REDUCED_METHODS" none cpu $REDUCED_ITERATIONS
+    reduced_runs "$ANDERSON_METHODS" anderson cpu 10
     # The GPU step (semi-reduced, plain iterations: docs/gpu.md), where asked for.
-    for method in $GPU_METHODS; do
-        q="${method#*:}"
-        for it in $REDUCED_ITERATIONS; do
-            for n in $handles; do
-                case " $baked " in *" ${n}_$q "*) ;; *) continue ;; esac
-                run_one "$(method_label semi "$q" none "$it") on the GPU" handles "$n" semi \
-                    "$dir/bake_${tet_size}_${n}_$q.h5" "$it" "gpu_${n}_${q}_$it" none cuda
-            done
-        done
-    done
+    reduced_runs "$GPU_METHODS" none cuda $REDUCED_ITERATIONS
 done
 ref_label=""
 if [ "$REF_ACCELERATION" = anderson ]; then ref_label=", Anderson-accelerated"; fi
