@@ -9,7 +9,8 @@
 // gets a Markdown section per scene: the chart and a table of every point. Every file is written
 // atomically; a malformed line is an error naming the file and the line. Each scene's section
 // opens with its time-to-accuracy table: for RMS targets 5%, 2%, 1% and 0.5%, the fastest point
-// of each method that reaches it (ms per step and setting), and the fastest method.
+// of each method that reaches it (ms per step and setting), and the fastest method (CPU and GPU
+// series apart: a method named "... on the GPU" was timed on a GPU machine).
 
 #include <algorithm>
 #include <cmath>
@@ -45,6 +46,22 @@ namespace {
         std::string name;
         std::vector<Series> series;
     };
+
+    /// A series whose method ends with " on the GPU" was timed on a GPU machine
+    /// (docs/make_charts.sh, GPU_METHODS): the fronts and the fastest row keep it apart from
+    /// the CPU runs, whose times come from another machine.
+    bool on_gpu(const Series& series)
+    {
+        const std::string suffix = " on the GPU";
+        const std::string& m = series.method;
+        return m.size() >= suffix.size()
+            && m.compare(m.size() - suffix.size(), suffix.size(), suffix) == 0;
+    }
+
+    bool has_gpu_series(const SceneResults& scene)
+    {
+        return std::any_of(scene.series.begin(), scene.series.end(), on_gpu);
+    }
 
     std::vector<std::string> split(const std::string& line)
     {
@@ -166,14 +183,15 @@ namespace {
 
     /// The scene's points whose `which` error (0: RMS, 1: max) no other point beats at the same
     /// or less time: the Pareto front of error against ms per step, by increasing time (and so
-    /// decreasing error). Points without a positive time and error are not on it.
-    std::vector<const Point*> pareto_front(const SceneResults& scene, int which)
+    /// decreasing error), among the CPU series or (`gpu`) the GPU series. Points without a
+    /// positive time and error are not on it.
+    std::vector<const Point*> pareto_front(const SceneResults& scene, int which, bool gpu = false)
     {
         const auto error = [which](const Point* p) { return which == 0 ? p->rms : p->max; };
         std::vector<const Point*> points;
         for (const Series& series : scene.series)
             for (const Point& p : series.points)
-                if (p.ms > 0.0 && error(&p) > 0.0)
+                if (on_gpu(series) == gpu && p.ms > 0.0 && error(&p) > 0.0)
                     points.push_back(&p);
         std::stable_sort(points.begin(), points.end(), [&](const Point* a, const Point* b) {
             return a->ms < b->ms || (a->ms == b->ms && error(a) < error(b));
@@ -304,6 +322,30 @@ namespace {
         return svg;
     }
 
+    /// `text` broken at spaces into lines of at most `width` characters (a longer word gets a
+    /// line of its own); no lines for empty text.
+    std::vector<std::string> wrap_words(const std::string& text, std::size_t width)
+    {
+        std::vector<std::string> lines;
+        std::string line;
+        std::size_t at = 0;
+        while (at < text.size()) {
+            const std::size_t space = std::min(text.find(' ', at), text.size());
+            const std::string word = text.substr(at, space - at);
+            at = space + 1;
+            if (word.empty())
+                continue;
+            if (!line.empty() && line.size() + 1 + word.size() > width) {
+                lines.push_back(line);
+                line.clear();
+            }
+            line += (line.empty() ? "" : " ") + word;
+        }
+        if (!line.empty())
+            lines.push_back(line);
+        return lines;
+    }
+
     std::string scene_svg(const SceneResults& scene, const std::string& note)
     {
         double x_min = HUGE_VAL, x_max = 0.0, y_min = HUGE_VAL, y_max = 0.0;
@@ -326,7 +368,10 @@ namespace {
         const double decades = 4.0;
         y_min = std::max(y_min, y_max * std::pow(10.0, -decades));
         const double panel_width = 400, panel_height = 320, margin_left = 80, gap = 90;
-        const double top = 60, legend_top = top + panel_height + 60;
+        const std::vector<std::string> note_lines = wrap_words(note, 150);
+        const double note_height = 14.0 * double(std::max<std::size_t>(note_lines.size(), 1) - 1);
+        const double top = 60 + note_height + (note_lines.size() > 1 ? 8.0 : 0.0),
+                     legend_top = top + panel_height + 60;
         const double legend_height = 20.0 * double(scene.series.size() + 1) + 10;
         const double width = margin_left + 2 * panel_width + gap + 30;
         const double height = legend_top + legend_height + 10;
@@ -340,10 +385,10 @@ namespace {
         svg += fmt::format("<text x=\"{:.1f}\" y=\"22\" text-anchor=\"middle\" font-size=\"15\" "
                            "font-weight=\"bold\">{}: error against time per step</text>\n",
             0.5 * width, xml_escape(scene.name));
-        if (!note.empty())
-            svg += fmt::format("<text x=\"{:.1f}\" y=\"38\" text-anchor=\"middle\" "
+        for (std::size_t i = 0; i < note_lines.size(); ++i)
+            svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.0f}\" text-anchor=\"middle\" "
                                "font-size=\"11\" fill=\"#555\">{}</text>\n",
-                0.5 * width, xml_escape(note));
+                0.5 * width, 38.0 + 14.0 * double(i), xml_escape(note_lines[i]));
         for (int which = 0; which < 2; ++which) {
             const double left = margin_left + which * (panel_width + gap);
             const LogAxis x = LogAxis::covering(x_min, x_max, left, left + panel_width);
@@ -364,10 +409,11 @@ namespace {
         const double front_y = legend_top + 20.0 * double(scene.series.size()) + 10;
         svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
                            "stroke=\"#f5c04a\" stroke-opacity=\"0.55\" stroke-width=\"9\"/>\n"
-                           "<text x=\"{:.1f}\" y=\"{:.1f}\">Pareto front: the least error "
+                           "<text x=\"{:.1f}\" y=\"{:.1f}\">Pareto front{}: the least error "
                            "reached within each time per step (no setting is both faster and "
                            "more accurate than its corners)</text>\n",
-            margin_left, front_y, margin_left + 30, front_y, margin_left + 40, front_y + 4);
+            margin_left, front_y, margin_left + 30, front_y, margin_left + 40, front_y + 4,
+            has_gpu_series(scene) ? " of the CPU runs" : "");
         svg += "</svg>\n";
         return svg;
     }
@@ -394,8 +440,13 @@ namespace {
             rule += " ---: |";
         }
         md += "\n" + rule + "\n";
-        std::vector<const Point*> best(std::size(accuracy_targets), nullptr);
-        std::vector<const Series*> best_series(std::size(accuracy_targets), nullptr);
+        // [0]: the CPU series, [1]: the GPU series (timed on another machine)
+        std::vector<const Point*> best[2]
+            = { std::vector<const Point*>(std::size(accuracy_targets)),
+                  std::vector<const Point*>(std::size(accuracy_targets)) };
+        std::vector<const Series*> best_series[2]
+            = { std::vector<const Series*>(std::size(accuracy_targets)),
+                  std::vector<const Series*>(std::size(accuracy_targets)) };
         for (const Series& series : scene.series) {
             md += "| " + series.method + " |";
             for (std::size_t t = 0; t < std::size(accuracy_targets); ++t) {
@@ -406,19 +457,25 @@ namespace {
                 md += fastest ? fmt::format(" {} ms ({} {}) |", ms_text(fastest->ms),
                           fastest->value, series.parameter)
                               : std::string(" - |");
-                if (fastest && (!best[t] || fastest->ms < best[t]->ms)) {
-                    best[t] = fastest;
-                    best_series[t] = &series;
+                const bool gpu = on_gpu(series);
+                if (fastest && (!best[gpu][t] || fastest->ms < best[gpu][t]->ms)) {
+                    best[gpu][t] = fastest;
+                    best_series[gpu][t] = &series;
                 }
             }
             md += "\n";
         }
-        md += "| **fastest** |";
-        for (std::size_t t = 0; t < std::size(accuracy_targets); ++t)
-            md += best[t]
-                ? fmt::format(" **{}**, {} ms |", best_series[t]->method, ms_text(best[t]->ms))
-                : std::string(" - |");
-        return md + "\n";
+        for (const bool gpu : { false, true }) {
+            if (gpu && !has_gpu_series(scene))
+                break;
+            md += gpu ? "| **fastest on the GPU** |" : "| **fastest** |";
+            for (std::size_t t = 0; t < std::size(accuracy_targets); ++t)
+                md += best[gpu][t] ? fmt::format(" **{}**, {} ms |", best_series[gpu][t]->method,
+                          ms_text(best[gpu][t]->ms))
+                                   : std::string(" - |");
+            md += "\n";
+        }
+        return md;
     }
 
     std::string markdown(const std::vector<SceneResults>& scenes, const std::string& chart_dir,
@@ -434,15 +491,25 @@ namespace {
                   "the target, ms per step (setting).\n\n"
                 + time_to_accuracy(scene) + "\nEvery point:\n\n";
             md += "\"front\": on the Pareto front of RMS error against time (no other point is "
-                  "as fast or faster with as little error or less).\n\n";
+                  "as fast or faster with as little error or less)";
+            md += has_gpu_series(scene) ? "; the GPU runs, timed on another machine, are not on "
+                                          "it: \"GPU front\" marks their own front.\n\n"
+                                        : ".\n\n";
             md += "| method | setting | ms/step | RMS % | max % | front |\n| --- | --- | ---: | "
                   "---: | ---: | --- |\n";
             const std::vector<const Point*> front = pareto_front(scene, 0);
+            const std::vector<const Point*> gpu_front = pareto_front(scene, 0, true);
+            const auto front_mark = [&](const Point& p) {
+                if (std::find(front.begin(), front.end(), &p) != front.end())
+                    return "yes";
+                return std::find(gpu_front.begin(), gpu_front.end(), &p) != gpu_front.end()
+                    ? "GPU front"
+                    : "";
+            };
             for (const Series& series : scene.series)
                 for (const Point& p : series.points)
                     md += fmt::format("| {} | {} {} | {} | {:.3g} | {:.3g} | {} |\n", series.method,
-                        p.value, series.parameter, ms_text(p.ms), p.rms, p.max,
-                        std::find(front.begin(), front.end(), &p) != front.end() ? "yes" : "");
+                        p.value, series.parameter, ms_text(p.ms), p.rms, p.max, front_mark(p));
         }
         return md;
     }
