@@ -8,9 +8,11 @@
 #   50k    the same at about 50k tets (0.0173), 25 to 200 handles, 2 threads (docs/charts_50k)
 #   400k   the cantilever and the twisting limb at 400k tets or more (sizes per scene), 25 to
 #          1000 handles (the limb 25 and 100: 1000 spheres on a capsule's medial segment take the
-#          generator minutes), iterations 5 to 50 for the reduced methods too, the first 0.5 s of
-#          each scene, an Anderson-accelerated reference, 2 threads (docs/charts_400k; the soft
-#          drop's full-space contacts are too slow at this size, docs/benchmarks.md)
+#          generator minutes), and a real mesh, the armadillo of libcgal-demo swaying on pinned
+#          feet (25 and 100 handles; samples/meshes/armadillo.off, which .ci/install-deps.sh
+#          extracts), iterations 5 to 50 for the reduced methods too, the first 0.5 s of each
+#          scene, an Anderson-accelerated reference, 2 threads (docs/charts_400k; the soft drop's
+#          full-space contacts are too slow at this size, docs/benchmarks.md)
 #   all    quick, 50k and 400k (the default)
 # The timed runs use the threads above whatever the machine has; the references, which are not
 # timed, use every core (REF_THREADS, default `nproc`), so a many-core machine shortens them.
@@ -26,6 +28,11 @@ case "$preset" in quick | 50k | 400k | all) ;; *)
     ;;
 esac
 export REF_THREADS="${REF_THREADS:-$(nproc)}"
+armadillo=samples/meshes/armadillo.off
+if { [ "$preset" = 400k ] || [ "$preset" = all ]; } && [ ! -s "$root/$armadillo" ]; then
+    echo "make_study: $root/$armadillo: missing (the 400k section's real mesh; .ci/install-deps.sh extracts it from libcgal-demo)" >&2
+    exit 1
+fi
 start=$(date +%s)
 part() { # NAME, then the environment of make_charts.sh
     local name="$1" begin
@@ -40,12 +47,12 @@ if [ "$preset" = quick ] || [ "$preset" = all ]; then
 fi
 if [ "$preset" = 50k ] || [ "$preset" = all ]; then
     part "about 50k tets" CHARTS_DIR=docs/charts_50k MARKER=charts_50k CHARTS_WORK="$build/charts_50k" \
-        TET_SIZE=0.0173 HANDLES="25 50 100 200" THREADS=2
+        TET_SIZE=0.0173 HANDLES="25 50 100 200" THREADS=2 FULL_ITERATIONS="1 2 5 10 20 50"
 fi
 if [ "$preset" = 400k ] || [ "$preset" = all ]; then
     part "400k tets or more" CHARTS_DIR=docs/charts_400k MARKER=charts_400k \
         CHARTS_WORK="$build/charts_400k" THREADS=2 DURATION=0.5 REF_ACCELERATION=anderson \
-        SCENES="cantilever:samples/rounded_bar/rounded_bar.obj:0.0085 twisting_limb:samples/capsule/capsule.obj:0.0076:25,100" \
+        SCENES="cantilever:samples/rounded_bar/rounded_bar.obj:0.0085 twisting_limb:samples/capsule/capsule.obj:0.0076:25,100 armadillo_sway:$armadillo:0.0060:25,100" \
         HANDLES="25 100 1000" MEDIAL_QUERY_BOUND=2000 QUADRATIC_MAX_HANDLES=100 \
         FULL_ITERATIONS="5 10 20 50" ANDERSON_ITERATIONS="5 10 20" \
         REDUCED_METHODS="semi:none semi:all hyper:none hyper:all" REDUCED_ITERATIONS="10 5 20 50" \
