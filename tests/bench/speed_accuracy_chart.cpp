@@ -369,9 +369,10 @@ namespace {
         y_min = std::max(y_min, y_max * std::pow(10.0, -decades));
         const double panel_width = 400, panel_height = 320, margin_left = 80, gap = 90;
         const std::vector<std::string> note_lines = wrap_words(note, 150);
-        const double note_height = 14.0 * double(std::max<std::size_t>(note_lines.size(), 1) - 1);
-        const double top = 60 + note_height + (note_lines.size() > 1 ? 8.0 : 0.0),
-                     legend_top = top + panel_height + 60;
+        // each note line past the first pushes the panels down by a line, plus a gap
+        const double note_extra
+            = note_lines.size() > 1 ? 14.0 * double(note_lines.size() - 1) + 8.0 : 0.0;
+        const double top = 60 + note_extra, legend_top = top + panel_height + 60;
         const double legend_height = 20.0 * double(scene.series.size() + 1) + 10;
         const double width = margin_left + 2 * panel_width + gap + 30;
         const double height = legend_top + legend_height + 10;
@@ -440,13 +441,12 @@ namespace {
             rule += " ---: |";
         }
         md += "\n" + rule + "\n";
-        // [0]: the CPU series, [1]: the GPU series (timed on another machine)
-        std::vector<const Point*> best[2]
-            = { std::vector<const Point*>(std::size(accuracy_targets)),
-                  std::vector<const Point*>(std::size(accuracy_targets)) };
-        std::vector<const Series*> best_series[2]
-            = { std::vector<const Series*>(std::size(accuracy_targets)),
-                  std::vector<const Series*>(std::size(accuracy_targets)) };
+        struct Fastest {
+            const Point* point = nullptr;
+            const Series* series = nullptr;
+        };
+        // [0]: the CPU series, [1]: the GPU series (timed on another machine); per target
+        Fastest best[2][std::size(accuracy_targets)] = {};
         for (const Series& series : scene.series) {
             md += "| " + series.method + " |";
             for (std::size_t t = 0; t < std::size(accuracy_targets); ++t) {
@@ -457,11 +457,9 @@ namespace {
                 md += fastest ? fmt::format(" {} ms ({} {}) |", ms_text(fastest->ms),
                           fastest->value, series.parameter)
                               : std::string(" - |");
-                const bool gpu = on_gpu(series);
-                if (fastest && (!best[gpu][t] || fastest->ms < best[gpu][t]->ms)) {
-                    best[gpu][t] = fastest;
-                    best_series[gpu][t] = &series;
-                }
+                Fastest& b = best[on_gpu(series)][t];
+                if (fastest && (!b.point || fastest->ms < b.point->ms))
+                    b = { fastest, &series };
             }
             md += "\n";
         }
@@ -469,10 +467,10 @@ namespace {
             if (gpu && !has_gpu_series(scene))
                 break;
             md += gpu ? "| **fastest on the GPU** |" : "| **fastest** |";
-            for (std::size_t t = 0; t < std::size(accuracy_targets); ++t)
-                md += best[gpu][t] ? fmt::format(" **{}**, {} ms |", best_series[gpu][t]->method,
-                          ms_text(best[gpu][t]->ms))
-                                   : std::string(" - |");
+            for (const Fastest& b : best[gpu])
+                md += b.point
+                    ? fmt::format(" **{}**, {} ms |", b.series->method, ms_text(b.point->ms))
+                    : std::string(" - |");
             md += "\n";
         }
         return md;
