@@ -71,6 +71,9 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         data.stamp.assign(static_cast<std::size_t>(num_primitives), -1);
         data.region.assign(static_cast<std::size_t>(num_primitives), Box3());
         data.face_stamp.assign(static_cast<std::size_t>(body.faces->rows()), -1);
+        data.face_position.assign(static_cast<std::size_t>(body.faces->rows()), -1);
+        data.self_row.assign(static_cast<std::size_t>(num_primitives), -1);
+        data.self_rowed.clear();
         const VecXi& indptr = *body.face_indptr;
         const VecXi& list = *body.face_list;
         data.face_primitive_indptr = VecXi::Zero(body.faces->rows() + 1);
@@ -125,7 +128,59 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         collect_active_edges(body, data, axis);
         sort_unique(data.partners);
         sort_unique(data.self_pairs);
+        mark_self_rows(body, data);
     });
+}
+
+void NarrowPhase::mark_self_rows(const NarrowPhaseBody& body, BodyData& data) const
+{
+    for (const int p : data.self_rowed)
+        data.self_row[static_cast<std::size_t>(p)] = -1;
+    data.self_rowed.clear();
+    data.self_bits.clear();
+    if (data.self_pairs.empty())
+        return;
+    const std::size_t n = data.grid.items.size();
+    for (std::size_t k = 0; k < n; ++k)
+        data.face_position[static_cast<std::size_t>(data.grid.at(k).index)] = static_cast<int>(k);
+    const auto row_of = [&](int p) {
+        int& row = data.self_row[static_cast<std::size_t>(p)];
+        if (row < 0) {
+            row = static_cast<int>(data.self_rowed.size());
+            data.self_rowed.push_back(p);
+        }
+        return row;
+    };
+    for (const std::uint64_t key : data.self_pairs) {
+        row_of(static_cast<int>(key >> 32));
+        row_of(static_cast<int>(key & 0xffffffffu));
+    }
+    // Past 32 MB of rows (a huge body with many self pairs), the binary searches of
+    // self_pair_allowed instead.
+    data.self_words = (n + 63) / 64;
+    const std::size_t words = data.self_rowed.size() * data.self_words;
+    constexpr std::size_t most_words = std::size_t { 1 } << 22;
+    if (words > most_words)
+        return;
+    data.self_bits.assign(words, 0);
+    const auto mark = [&](int row, int p) {
+        std::uint64_t* bits
+            = data.self_bits.data() + static_cast<std::size_t>(row) * data.self_words;
+        for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
+            const int f = (*body.face_list)(j);
+            if (data.face_stamp[static_cast<std::size_t>(f)] != m_run)
+                continue;
+            const unsigned k
+                = static_cast<unsigned>(data.face_position[static_cast<std::size_t>(f)]);
+            bits[k / 64] |= std::uint64_t { 1 } << (k % 64);
+        }
+    };
+    for (const std::uint64_t key : data.self_pairs) {
+        const int lo = static_cast<int>(key >> 32);
+        const int hi = static_cast<int>(key & 0xffffffffu);
+        mark(data.self_row[static_cast<std::size_t>(lo)], hi);
+        mark(data.self_row[static_cast<std::size_t>(hi)], lo);
+    }
 }
 
 template <class Work>
@@ -544,14 +599,23 @@ void NarrowPhase::test_triangle(
     const Vec3 a0 = corner(a, fa, 0);
     const Vec3 a1 = corner(a, fa, 1);
     const Vec3 a2 = corner(a, fa, 2);
+    // Within the body, the face's primitives' self rows (or, without rows, the searches).
+    const bool rows = !data.self_bits.empty();
+    const auto allowed = [&](int fb, int position) {
+        if (!rows)
+            return self_pair_allowed(ba, fa, fb, false);
+        const VecXi& indptr = data.face_primitive_indptr;
+        for (int i = indptr(fa); i < indptr(fa + 1); ++i)
+            if (self_row_allows(data, data.face_primitives(i), position))
+                return true;
+        return false;
+    };
     for (const int bb : data.partners) {
         if (bb < ba)
             continue;
         const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-        m_bodies[static_cast<std::size_t>(bb)].grid.overlapping(item.box, 0.0, [&](int fb, int) {
-            if (bb == ba
-                && (fb <= fa || share_corner(a, fa, b, fb)
-                    || !self_pair_allowed(ba, fa, fb, false)))
+        m_bodies[static_cast<std::size_t>(bb)].grid.overlapping(item.box, 0.0, [&](int fb, int at) {
+            if (bb == ba && (fb <= fa || !allowed(fb, at) || share_corner(a, fa, b, fb)))
                 return;
             ++scratch.triangle_tests;
             if (triangles_intersect(
@@ -561,13 +625,14 @@ void NarrowPhase::test_triangle(
     }
 }
 
-bool NarrowPhase::own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const
+bool NarrowPhase::own_face_excluded(
+    const NarrowPhaseBody& own, int body, int node, int face, bool allowed_known) const
 {
     if (own.nodes_are_vertices
         && ((*own.faces)(face, 0) == node || (*own.faces)(face, 1) == node
             || (*own.faces)(face, 2) == node))
         return true;
-    if (!self_pair_allowed(body, node, face, true))
+    if (!allowed_known && !self_pair_allowed(body, node, face, true))
         return true;
     if (own.rest_near_indptr != nullptr) {
         const int* begin = own.rest_near_list->data() + (*own.rest_near_indptr)(node);
@@ -603,8 +668,10 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         // Only the faces that the node's velocity relative to the body's active faces (their
         // mean velocity, plus the spread about it) can reach: see Reach.
+        // Behind a face of its own body, a node counts only within the margin (Euclidean:
+        // behind_out_of_reach), so there the per-axis box test behind needs no sqrt(3).
         Reach r;
-        r.hold = std::max(query.near, std::sqrt(3.0) * margin);
+        r.hold = query.same_body ? query.near : std::max(query.near, std::sqrt(3.0) * margin);
         r.own_speed = query.velocity.norm();
         r.slack
             = 1e-9 * lookahead * (r.own_speed + faces.mean_velocity.norm() + faces.velocity_spread);
@@ -619,14 +686,19 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
             return set_reach(query, r, column.box, column.motion.mean, column.motion.speed,
                 column.motion.spread, beaten);
         };
+        // Within the body, its own neighbourhood first, by the node's primitive's self row.
+        const bool rows = bf == bn && !faces.self_bits.empty();
+        const int primitive = faces.node_primitive(item.index);
         faces.grid.overlapping(item.box, r.most, column_grow, [&](int f, int k) {
+            if (rows && !self_row_allows(faces, primitive, k))
+                return;
             const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
             const double beaten
                 = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
             if (face_out_of_reach(query, r, faces.grid.at(static_cast<std::size_t>(k)).box,
                     motion.mean, motion.speed, motion.spread, beaten))
                 return;
-            if (bf == bn && own_face_excluded(other, bn, item.index, f))
+            if (bf == bn && own_face_excluded(other, bn, item.index, f, rows))
                 return;
             ++scratch.node_tests;
             FaceHit hit;

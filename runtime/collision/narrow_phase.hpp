@@ -256,6 +256,15 @@ private:
         /// Per column of edge_grid: its edges' box and motion (as `columns` for the faces).
         std::vector<ColumnMotion> edge_columns;
         std::vector<std::uint64_t> self_pairs; ///< (low primitive << 32) | high, sorted
+        /// With self pairs, which active faces each primitive may pair with, as bits, so that a
+        /// search within one body drops its own neighbourhood at one load per face (the same
+        /// answer as self_pair_allowed): per primitive with a self pair, a row of one bit per
+        /// position in `grid`, set for the faces of the primitives it collides with.
+        std::vector<int> face_position; ///< #F, the face's position in `grid` (active faces)
+        std::vector<int> self_row; ///< #P, the primitive's row (-1: none)
+        std::vector<int> self_rowed; ///< the primitives with a row this run
+        std::vector<std::uint64_t> self_bits; ///< rows x self_words (empty: too large, none)
+        std::size_t self_words = 0;
     };
     struct Scratch {
         std::vector<FacePair> intersecting;
@@ -288,6 +297,19 @@ private:
     static void summarize_columns(const FaceGrid& grid, const MotionAt& motion_at,
         std::vector<BodyData::ColumnMotion>& columns);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
+    /// A body's self rows (BodyData::self_bits), after file_faces.
+    void mark_self_rows(const NarrowPhaseBody& body, BodyData& data) const;
+    /// Whether the face at grid position `position` of a body may pair, within it, with
+    /// primitive `primitive` (self_pair_allowed through the body's self rows).
+    static bool self_row_allows(const BodyData& data, int primitive, int position)
+    {
+        const int row = primitive < 0 ? -1 : data.self_row[static_cast<std::size_t>(primitive)];
+        if (row < 0)
+            return false;
+        const std::size_t at = static_cast<std::size_t>(row) * data.self_words
+            + static_cast<std::size_t>(position) / 64;
+        return (data.self_bits[at] >> (static_cast<unsigned>(position) % 64)) & 1u;
+    }
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
     /// Empties every chunk's scratch.
@@ -301,7 +323,9 @@ private:
     bool nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, double margin,
         double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
     /// Whether node `node` of body `body` never pairs with its own face `face`.
-    bool own_face_excluded(const NarrowPhaseBody& own, int body, int node, int face) const;
+    /// `allowed_known`: its primitives are known to pair (self_row_allows), not searched again.
+    bool own_face_excluded(
+        const NarrowPhaseBody& own, int body, int node, int face, bool allowed_known) const;
     /// m_edge_work: each active sharp edge of a dynamic body.
     void build_edge_work(const std::vector<NarrowPhaseBody>& bodies);
     /// A body's BodyData::active_edges (after file_faces).
