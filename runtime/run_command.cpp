@@ -265,6 +265,8 @@ namespace {
             Timer step_timer;
             stats.start_frame();
             for (int s = 0; s < scene.steps_per_frame; ++s) {
+                simulation.set_triangle_pairs(
+                    stats.wants_triangle_pairs(s + 1 == scene.steps_per_frame));
                 simulation.step();
                 stats.record_step();
                 progress.advance();

@@ -44,6 +44,12 @@ public:
     /// the file cannot be written.
     void open_frame_log(const std::string& path, int resume_frame);
 
+    /// Whether a step needs the collision world's intersecting triangle pairs: every step with
+    /// --check-collisions, a frame's last step with --stats (its `intersecting_triangles`).
+    bool wants_triangle_pairs(bool frame_end) const
+    {
+        return m_check_collisions || (m_stats && frame_end);
+    }
     /// Starts a frame's steps: clears the per-frame maxima and sums.
     void start_frame();
     /// After each step: sleeping bodies, the collision report, the solvers' step reports and,

@@ -73,6 +73,13 @@ public:
     const std::vector<Body>& bodies() const { return m_bodies; }
     /// The collision pipeline, or null when the scene turns collision off.
     const CollisionWorld* collision() const { return m_collision.get(); }
+    /// Whether the coming steps' collision detection finds the intersecting triangle pairs
+    /// (CollisionWorld::set_triangle_pairs; on by default).
+    void set_triangle_pairs(bool on)
+    {
+        if (m_collision)
+            m_collision->set_triangle_pairs(on);
+    }
     /// Bodies asleep now.
     int num_sleeping() const;
 

@@ -196,9 +196,12 @@ void NarrowPhase::for_each_body(const std::vector<NarrowPhaseBody>& bodies, cons
 void NarrowPhase::add_pair(
     const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin)
 {
-    // Grown by the margin and by how far the two bodies' nodes may move in the step.
-    const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
-        + bodies[static_cast<std::size_t>(pair.body_b)].motion;
+    // Grown by the margin and by how far the two bodies' nodes may move in the step (within one
+    // body, relative to each other).
+    const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(pair.body_a)];
+    const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(pair.body_b)];
+    const double grow
+        = margin + (pair.body_a == pair.body_b ? 2.0 * a.self_motion : a.motion + b.motion);
     const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
     if (region.isEmpty())
         return;
@@ -664,7 +667,9 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.velocity.norm() + other.motion;
         query.same_body = bf == bn;
-        query.stopping = own.may_stop && other.may_stop;
+        // Within one body, the approach at the start velocities only: a part does not stop
+        // while another goes on as two bodies do (docs/method.md, "Speculative contacts").
+        query.stopping = own.may_stop && other.may_stop && !query.same_body;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         // Only the faces that the node's velocity relative to the body's active faces (their
         // mean velocity, plus the spread about it) can reach: see Reach.
@@ -763,8 +768,9 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
     build_work_lists();
     // Triangle pairs: each active triangle against the later bodies' active triangles (and its
     // own body's later ones, for self pairs) whose boxes overlap its box.
-    in_chunks(
-        m_work.size(), [&](Scratch& scratch, std::size_t k) { test_triangle(bodies, scratch, k); });
+    if (m_triangle_pairs)
+        in_chunks(m_work.size(),
+            [&](Scratch& scratch, std::size_t k) { test_triangle(bodies, scratch, k); });
     // Nodes: against the triangles of every partner body whose box grown by the reach holds
     // them; the nearest within the reach (or behind) wins, ties to the lowest (body, face).
     m_node_best.resize(m_node_work.size());

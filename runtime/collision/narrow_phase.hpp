@@ -57,6 +57,9 @@ struct NarrowPhaseBody {
     /// How far its nodes may move in the step (m): the search for speculative contacts (run())
     /// reaches the margin plus both bodies' motion.
     double motion = 0.0;
+    /// How far each of its primitives grows for a pair within the body (at most `motion`: half
+    /// of what two of its points may close on each other in the step).
+    double self_motion = 0.0;
     /// n x 3 velocities of the nodes, world coordinates (null: at rest); with nodes that are the
     /// surface vertices, of the triangles' corners too.
     const MatX3* velocities = nullptr;
@@ -151,6 +154,10 @@ public:
         m_edge_contacts = on;
         m_sharp_cosine = std::cos(sharp_degrees * M_PI / 180.0);
     }
+    /// Whether run() tests the triangle pairs (intersecting(), triangle_tests(); on by default).
+    /// They are a measurement (what --check-collisions compares, and --stats counts): no contact
+    /// reads them, so a run that asks for neither skips them.
+    void set_triangle_pairs(bool on) { m_triangle_pairs = on; }
     /// How fast a point closes on a point of another body along a normal in the step, at most,
     /// where either body may stop during it (docs/method.md, "Speculative contacts": a body that
     /// lands on the ground stops under one that lands on it, which at the step's start moved
@@ -353,6 +360,7 @@ private:
     std::vector<EdgeCandidate> m_edge_candidates;
     long m_edge_tests = 0;
     bool m_edge_contacts = false;
+    bool m_triangle_pairs = true;
     double m_sharp_cosine = 0.0; ///< cos of the sharp edges' least angle
     std::vector<NodeCandidate> m_node_best; ///< per m_node_work
     std::vector<char> m_node_found;

@@ -372,7 +372,8 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
         query.near = margin + (own.is_static != other.is_static ? extra : 0.0);
         query.reach = query.near + lookahead * query.speed + other.motion;
         query.hold = std::max(query.near, margin);
-        query.stopping = own.may_stop && other.may_stop;
+        // Within one body, the approach at the start velocities only (as a vertex's).
+        query.stopping = own.may_stop && other.may_stop && bf != be;
         // Each sharp partner edge whose box is within the reach of the two edges' motion, then
         // the exact rule.
         const auto test_edge = [&](const BodyData::ActiveEdge& edge) {

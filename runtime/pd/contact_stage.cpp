@@ -149,8 +149,9 @@ void ContactStage::add_body_contacts(
         if (record.num_sides == 0)
             continue; // between constant bodies
         add_face(record, bodies, contacts, c);
-        if (static_cast<std::size_t>(c) < contacts.self.size()
-            && contacts.self[static_cast<std::size_t>(c)])
+        record.self = static_cast<std::size_t>(c) < contacts.self.size()
+            && contacts.self[static_cast<std::size_t>(c)];
+        if (record.self)
             plane.compliance_floor = self_compliance_floor(record);
         const ContactTerm& first = contacts.terms[static_cast<std::size_t>(begin)];
         if (bodies[static_cast<std::size_t>(first.body)].solver != nullptr) {
@@ -302,13 +303,14 @@ void ContactStage::begin_step(
 }
 
 // A contact between bodies takes the normal force of its warm start (the last step's of the same
-// key) as its preload when every body it pushes has compliance_preload.
+// key) as its preload when every body it pushes has compliance_preload. A self contact never does
+// (docs/method.md, "Self collision on real meshes": the preload fed on itself there).
 void ContactStage::set_preloads(Index first_body_contact)
 {
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = first_body_contact; a < m; ++a) {
         const Record& record = m_records[static_cast<std::size_t>(a)];
-        bool preload = true;
+        bool preload = !record.self;
         for (int s = 0; s < record.num_sides; ++s)
             preload = preload
                 && m_solvers[static_cast<std::size_t>(

@@ -173,6 +173,7 @@ private:
         /// terms in m_face_node / m_face_weight (-1: a fixed plane).
         int face_body = -1;
         int face = -1;
+        bool self = false; ///< within one body (BodyContacts::self)
     };
     struct BodyData {
         bool initialized = false;

@@ -426,6 +426,38 @@ namespace {
         EXPECT_GT(falling, at_rest);
     }
 
+    // One body falling (every node at the same velocity) has the self candidates it has at
+    // rest: within one body the speculative reach is the approach at the start velocities,
+    // never a part stopping while another goes on (docs/method.md, "Speculative contacts").
+    // With the stop, every vertex in front of its own faces within its fall's reach was one.
+    TEST(NarrowPhase, AFallingBodyHasTheSelfCandidatesItHasAtRest)
+    {
+        const Vec3 none = Vec3::Zero();
+        const PlacedBody still(Mat3::Identity(), Vec3::Zero(), &none, Vec3::Zero());
+        const PlacedBody falling(Mat3::Identity(), Vec3::Zero(), &none, Vec3(0.0, -3.0, 0.0));
+        std::vector<PrimitivePairRef> pairs;
+        for (const PrimitivePairRef& pair : all_pairs(still, still))
+            if (pair.body_a == 0 && pair.body_b == 0)
+                pairs.push_back(pair);
+        ASSERT_GT(pairs.size(), 10u);
+        const double margin = 0.013;
+        const double lookahead = 0.04;
+        NarrowPhase at_rest;
+        at_rest.run({ still.view }, pairs, margin, lookahead);
+        NarrowPhase in_fall;
+        in_fall.run({ falling.view }, pairs, margin, lookahead);
+        const std::vector<NodeCandidate>& expected = at_rest.candidates();
+        const std::vector<NodeCandidate>& found = in_fall.candidates();
+        EXPECT_GT(expected.size(), 0u);
+        ASSERT_EQ(found.size(), expected.size());
+        for (std::size_t k = 0; k < found.size(); ++k) {
+            EXPECT_EQ(found[k].node, expected[k].node);
+            EXPECT_EQ(found[k].face, expected[k].face);
+            EXPECT_EQ(found[k].distance, expected[k].distance);
+            EXPECT_LT(std::abs(found[k].distance), margin);
+        }
+    }
+
 } // namespace
 } // namespace mat
 
