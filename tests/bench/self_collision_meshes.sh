@@ -133,7 +133,7 @@ for mesh in "${meshes[@]}"; do
                 if (n > 0 && d / n > dev) dev = d / n
             }
         }
-        END { printf "%.4f %.2g %.3f %.3f\n", most / start, dev, s0, s1 }')
+        END { printf "%.6f %.2g %.3f %.3f\n", most / start, dev, s0, s1 }')
     off_s=$(loop_seconds "$dir/off.log")
     on_s=$(loop_seconds "$dir/on.log")
     recall=$(awk '/^collision check/ { print $7 }' "$dir/check.log")
