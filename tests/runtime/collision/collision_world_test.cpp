@@ -125,6 +125,29 @@ namespace {
             hashed.last_report().primitive_candidates, all.last_report().primitive_candidates / 4);
     }
 
+    // The intersecting triangle pairs are a measurement: without them (a run that reports
+    // none) the contacts are the same to the bit, and the pairs and their count are empty.
+    TEST(CollisionWorld, TrianglePairsOffLeaveTheContactsAsTheyAre)
+    {
+        CollisionSettings settings;
+        settings.self = true;
+        CollisionWorld with = make_world(settings);
+        CollisionWorld without = make_world(settings);
+        without.set_triangle_pairs(false);
+        TwoCreatures scene;
+        const BodyContacts contacts = with.detect(scene.states);
+        const BodyContacts reference = without.detect(scene.states);
+        expect_same_contacts(contacts, reference, "triangle pairs on vs off");
+        EXPECT_GT(with.intersecting_pairs().size(), 20u);
+        EXPECT_TRUE(without.intersecting_pairs().empty());
+        EXPECT_EQ(without.last_report().intersecting_triangles, 0);
+        EXPECT_EQ(without.last_report().triangle_tests, 0);
+        EXPECT_EQ(without.last_report().contacts, with.last_report().contacts);
+        without.set_triangle_pairs(true);
+        without.detect(scene.states);
+        EXPECT_EQ(without.intersecting_pairs(), with.intersecting_pairs());
+    }
+
     TEST(CollisionWorld, ResultIndependentOfTheThreadCount)
     {
         for (const bool self : { false, true }) {
