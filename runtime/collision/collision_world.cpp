@@ -175,13 +175,6 @@ void CollisionWorld::update_body(std::size_t b, const CollisionBodyState& state,
     } else {
         body.surface_velocity.resize(0, 3);
     }
-    body.self_motion = state.motion;
-    if (body.surface_velocity.rows() > 0) {
-        const Eigen::RowVector3d mean = body.surface_velocity.colwise().mean();
-        const double spread = std::sqrt(
-            (body.surface_velocity.rowwise() - mean).rowwise().squaredNorm().maxCoeff());
-        body.self_motion = std::min(state.motion, m_lookahead * spread);
-    }
 
     // The body's primitives in the world, radii grown by half the margin, and their boxes.
     body.items.clear();
@@ -394,17 +387,6 @@ void CollisionWorld::test_primitive_pairs(const std::vector<CollisionBodyState>&
                 const Eigen::Vector4d& ball_b = m_balls[static_cast<std::size_t>(j)];
                 if ((ball_a.head<3>() - ball_b.head<3>()).norm() > ball_a(3) + ball_b(3))
                     continue;
-                const double shrink = self_shrink(states, a.body, b.body);
-                if (shrink > 0.0) {
-                    Primitive pa = m_primitives[static_cast<std::size_t>(i)];
-                    Primitive pb = m_primitives[static_cast<std::size_t>(j)];
-                    for (int s = 0; s < 3; ++s) {
-                        pa.radii[static_cast<std::size_t>(s)] -= shrink;
-                        pb.radii[static_cast<std::size_t>(s)] -= shrink;
-                    }
-                    m_hit[k] = primitives_intersect(pa, pb);
-                    continue;
-                }
                 m_hit[k] = primitives_intersect(m_primitives[static_cast<std::size_t>(i)],
                     m_primitives[static_cast<std::size_t>(j)]);
             }
@@ -435,7 +417,6 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         view.rest_near_list = &body.rest_near_list;
         view.is_static = states[b].is_static;
         view.motion = states[b].motion;
-        view.self_motion = body.self_motion;
         view.velocities = body.surface_velocity.rows() > 0 ? &body.surface_velocity : nullptr;
         view.may_stop = states[b].may_stop;
     }
@@ -443,15 +424,8 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
     for (const auto& [i, j] : m_colliding) {
         const BroadPhaseItem& a = m_items[static_cast<std::size_t>(i)];
         const BroadPhaseItem& b = m_items[static_cast<std::size_t>(j)];
-        // A self pair's region: its boxes without the growth by the body's motion (see
-        // self_shrink).
-        const double shrink = self_shrink(states, a.body, b.body);
-        const auto shrunk = [shrink](const Box3& box) {
-            return shrink > 0.0 ? Box3(box.min().array() + shrink, box.max().array() - shrink)
-                                : box;
-        };
-        m_pair_refs.push_back({ a.body, a.primitive, b.body, b.primitive,
-            shrunk(a.box).intersection(shrunk(b.box)) });
+        m_pair_refs.push_back(
+            { a.body, a.primitive, b.body, b.primitive, a.box.intersection(b.box) });
     }
     m_narrow.run(m_views, m_pair_refs, margin, m_lookahead, m_extra);
     m_intersecting = m_narrow.intersecting();

@@ -37,7 +37,6 @@
 // no object-level culling, the handle bound from q: collision_variants.hpp) set through
 // set_variants_for_comparison; the production pipeline always uses the defaults.
 
-#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -208,11 +207,6 @@ private:
         VecXi rest_near_list;
         double rest_near_radius = -1.0;
         MatX3 surface_velocity; ///< #Vs x 3 (empty: at rest)
-        /// What each primitive of a self pair grows by for the step (at most the body's motion):
-        /// the lookahead times the largest distance of a surface velocity from their mean, half
-        /// of what two of its surface points may close on each other (docs/method.md,
-        /// "Speculative contacts": within one body, the approach at the start velocities).
-        double self_motion = 0.0;
         MatX3 nodes; ///< n x 3
         MatX3 sphere_centers; ///< #S x 3 (bake coordinates)
         // Phase 1 output, kept while the body does not move.
@@ -231,16 +225,6 @@ private:
     void select_object_pairs(const std::vector<CollisionBodyState>& states);
     void broad_phase();
     void test_primitive_pairs(const std::vector<CollisionBodyState>& states);
-    /// Within one body (a == b): how much less each primitive of a pair grows than by the
-    /// body's motion (motion - Body::self_motion), so that a self pair is tested and searched
-    /// with the body's motion relative to itself; 0 between bodies.
-    double self_shrink(const std::vector<CollisionBodyState>& states, int a, int b) const
-    {
-        if (a != b)
-            return 0.0;
-        const std::size_t k = static_cast<std::size_t>(a);
-        return std::max(0.0, states[k].motion - m_bodies[k].self_motion);
-    }
     void narrow_phase(const std::vector<CollisionBodyState>& states, double margin);
     void respond(const std::vector<CollisionBodyState>& states);
     /// Appends a surface vertex's terms (its embedding's nodes) times `weight` to the contact

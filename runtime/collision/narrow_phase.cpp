@@ -196,12 +196,9 @@ void NarrowPhase::for_each_body(const std::vector<NarrowPhaseBody>& bodies, cons
 void NarrowPhase::add_pair(
     const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin)
 {
-    // Grown by the margin and by how far the two bodies' nodes may move in the step (within one
-    // body, relative to each other).
-    const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(pair.body_a)];
-    const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(pair.body_b)];
-    const double grow
-        = margin + (pair.body_a == pair.body_b ? 2.0 * a.self_motion : a.motion + b.motion);
+    // Grown by the margin and by how far the two bodies' nodes may move in the step.
+    const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
+        + bodies[static_cast<std::size_t>(pair.body_b)].motion;
     const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
     if (region.isEmpty())
         return;

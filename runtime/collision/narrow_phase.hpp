@@ -57,9 +57,6 @@ struct NarrowPhaseBody {
     /// How far its nodes may move in the step (m): the search for speculative contacts (run())
     /// reaches the margin plus both bodies' motion.
     double motion = 0.0;
-    /// How far each of its primitives grows for a pair within the body (at most `motion`: half
-    /// of what two of its points may close on each other in the step).
-    double self_motion = 0.0;
     /// n x 3 velocities of the nodes, world coordinates (null: at rest); with nodes that are the
     /// surface vertices, of the triangles' corners too.
     const MatX3* velocities = nullptr;
