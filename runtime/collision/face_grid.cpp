@@ -2,52 +2,114 @@
 
 namespace mat {
 
+namespace {
+    /// A box's key along the sweep axis: its low end, or -infinity where that is NaN (so that
+    /// the keys are ordered; such a box overlaps nothing).
+    double sweep_key(const Box3& box, int axis)
+    {
+        const double low = box.min()[axis];
+        return std::isnan(low) ? -std::numeric_limits<double>::infinity() : low;
+    }
+} // namespace
+
 void FaceGrid::build(int axis)
 {
     m_axis = axis;
     m_box = Box3();
     for (const GridItem& item : items)
         m_box.extend(item.box);
-    size_columns();
+    assign_levels();
+    int columns = 0;
+    for (std::size_t l = 0; l < m_levels.size(); ++l) {
+        size_columns(m_levels[l], static_cast<int>(l));
+        m_levels[l].first_column = columns;
+        columns += m_levels[l].columns_u * m_levels[l].columns_v;
+    }
     sort_into_columns();
     store_boxes();
 }
 
-int FaceGrid::column(double at_u, double at_v) const
+void FaceGrid::assign_levels()
+{
+    // Sizes: the largest side of each box; the median of the finite ones (a non-finite size
+    // counts as infinite, and so falls in the last level).
+    const std::size_t n = items.size();
+    m_sizes.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        const double size = items[k].box.isEmpty() ? 0.0 : items[k].box.sizes().maxCoeff();
+        m_sizes[k] = size <= std::numeric_limits<double>::max()
+            ? size
+            : std::numeric_limits<double>::infinity();
+    }
+    m_median.assign(m_sizes.begin(), m_sizes.end());
+    double first_limit = std::numeric_limits<double>::infinity();
+    if (n > 0) {
+        const auto middle = m_median.begin() + static_cast<std::ptrdiff_t>(n / 2);
+        std::nth_element(m_median.begin(), middle, m_median.end());
+        if (*middle > 0.0 && 2.0 * *middle <= std::numeric_limits<double>::max())
+            first_limit = 2.0 * *middle;
+    }
+    // Each box's size class, then the classes that hold a box, in order, as levels.
+    std::array<int, max_levels> present {};
+    m_level.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        int l = 0;
+        for (double limit = first_limit; l < max_levels - 1 && !(m_sizes[k] <= limit);
+             limit *= level_ratio)
+            ++l;
+        m_level[k] = l;
+        present[static_cast<std::size_t>(l)] = 1;
+    }
+    std::array<int, max_levels> compact {};
+    int levels = 0;
+    for (int l = 0; l < max_levels; ++l)
+        compact[static_cast<std::size_t>(l)] = present[static_cast<std::size_t>(l)] ? levels++ : -1;
+    m_levels.assign(static_cast<std::size_t>(levels), Level {});
+    m_widths.assign(static_cast<std::size_t>(levels), Vec3::Zero());
+    for (std::size_t k = 0; k < n; ++k) {
+        m_level[k] = compact[static_cast<std::size_t>(m_level[k])];
+        const std::size_t l = static_cast<std::size_t>(m_level[k]);
+        m_levels[l].box.extend(items[k].box);
+        m_widths[l] = m_widths[l].cwiseMax(items[k].box.sizes());
+    }
+}
+
+int FaceGrid::column(const Level& level, double at_u, double at_v) const
 {
     const auto clamp = [](double x, int count) {
         return !(x >= 0.0) ? 0 : x >= count - 1 ? count - 1 : static_cast<int>(x); // NaN: 0
     };
-    return clamp(std::floor((at_v - m_origin_v) / m_cell_v), m_columns_v) * m_columns_u
-        + clamp(std::floor((at_u - m_origin_u) / m_cell_u), m_columns_u);
+    return level.first_column
+        + clamp(std::floor((at_v - level.origin_v) / level.cell_v), level.columns_v)
+        * level.columns_u
+        + clamp(std::floor((at_u - level.origin_u) / level.cell_u), level.columns_u);
 }
 
-void FaceGrid::size_columns()
+void FaceGrid::size_columns(Level& level, int level_index)
 {
     const int u = (m_axis + 1) % 3;
     const int v = (m_axis + 2) % 3;
-    Vec3 width = Vec3::Zero();
-    for (const GridItem& item : items)
-        width = width.cwiseMax(item.box.sizes());
-    m_width = width(m_axis);
-    m_width_u = width(u);
-    m_width_v = width(v);
-    m_origin_u = m_box.isEmpty() ? 0.0 : m_box.min()(u);
-    m_origin_v = m_box.isEmpty() ? 0.0 : m_box.min()(v);
-    const double size_u = m_box.isEmpty() ? 0.0 : m_box.sizes()(u);
-    const double size_v = m_box.isEmpty() ? 0.0 : m_box.sizes()(v);
+    const Vec3& width = m_widths[static_cast<std::size_t>(level_index)];
+    level.width = width(m_axis);
+    level.width_u = width(u);
+    level.width_v = width(v);
+    const Box3& box = level.box;
+    level.origin_u = box.isEmpty() ? 0.0 : box.min()(u);
+    level.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
+    const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
+    const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
     // Columns: no narrower than the widest box, at most max_columns per side.
     constexpr int max_columns = 64;
-    m_cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
-    m_cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
+    level.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
+    level.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
     const auto count = [](double size, double cell) {
         const double n = size / cell; // NaN with non-finite positions: 1 column
         if (!(n >= 0.0))
             return 1;
         return n < max_columns ? static_cast<int>(n) + 1 : max_columns;
     };
-    m_columns_u = count(size_u, m_cell_u);
-    m_columns_v = count(size_v, m_cell_v);
+    level.columns_u = count(size_u, level.cell_u);
+    level.columns_v = count(size_v, level.cell_v);
 }
 
 void FaceGrid::sort_into_columns()
@@ -55,10 +117,14 @@ void FaceGrid::sort_into_columns()
     const int u = (m_axis + 1) % 3;
     const int v = (m_axis + 2) % 3;
     // Counting sort by column, then each column along the sweep axis.
-    const int columns = m_columns_u * m_columns_v;
+    const int columns = m_levels.empty()
+        ? 0
+        : m_levels.back().first_column + m_levels.back().columns_u * m_levels.back().columns_v;
     m_column_start.assign(static_cast<std::size_t>(columns + 1), 0);
-    for (GridItem& item : items) {
-        item.column = column(item.box.min()(u), item.box.min()(v));
+    for (std::size_t k = 0; k < items.size(); ++k) {
+        GridItem& item = items[k];
+        item.column = column(
+            m_levels[static_cast<std::size_t>(m_level[k])], item.box.min()(u), item.box.min()(v));
         ++m_column_start[static_cast<std::size_t>(item.column + 1)];
     }
     for (int c = 0; c < columns; ++c)
@@ -74,8 +140,9 @@ void FaceGrid::sort_into_columns()
         std::sort(items.begin() + m_column_start[static_cast<std::size_t>(c)],
             items.begin() + m_column_start[static_cast<std::size_t>(c + 1)],
             [axis](const GridItem& x, const GridItem& y) {
-                return x.box.min()[axis] < y.box.min()[axis]
-                    || (x.box.min()[axis] == y.box.min()[axis] && x.index < y.index);
+                const double kx = sweep_key(x.box, axis);
+                const double ky = sweep_key(y.box, axis);
+                return kx < ky || (kx == ky && x.index < y.index);
             });
 }
 
@@ -90,7 +157,8 @@ void FaceGrid::store_boxes()
     for (std::size_t k = 0; k < n; ++k) {
         const GridItem& item = items[k];
         for (int a = 0; a < 3; ++a) {
-            m_lo[static_cast<std::size_t>(a)][k] = item.box.min()[a];
+            m_lo[static_cast<std::size_t>(a)][k]
+                = a == m_axis ? sweep_key(item.box, a) : item.box.min()[a];
             m_hi[static_cast<std::size_t>(a)][k] = item.box.max()[a];
         }
         m_index[k] = item.index;

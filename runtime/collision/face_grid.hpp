@@ -5,10 +5,13 @@
 // that axis within its column. A query box then visits the triangles whose boxes overlap it,
 // looking only in the neighbouring columns and, within a column, from a binary search (or the
 // start of a short column) to the first box past it; with AVX-512, eight boxes per comparison.
+// Boxes of very different sizes are filed by size in up to four such grids (levels), each sized
+// by its own widest box, so that a few long triangles do not widen every query's scan.
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -32,7 +35,8 @@ public:
     /// The items to file, with their boxes; build() sorts them.
     std::vector<GridItem> items;
 
-    /// Files `items` along sweep axis `axis`, sorted by (column, low end on the axis, index).
+    /// Files `items` along sweep axis `axis`, sorted by (column, low end on the axis, index);
+    /// the columns of a level of larger boxes come after those of the smaller ones.
     void build(int axis);
     /// The box of all the boxes (empty if there are none).
     const Box3& box() const { return m_box; }
@@ -40,7 +44,7 @@ public:
     const GridItem& at(std::size_t k) const { return items[k]; }
 
     /// Calls visit(index, position) for every item whose box overlaps `box` grown by
-    /// `grow` on every side (non-finite coordinates fall in the first column).
+    /// `grow` on every side (non-finite coordinates fall in a level's first column).
     template <class Visit> void overlapping(const Box3& box, double grow, const Visit& visit) const
     {
         overlapping(
@@ -50,7 +54,20 @@ public:
     /// is skipped) for the items filed in that column (GridItem::column).
     template <class Grow, class Visit>
     void overlapping(
-        const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const;
+        const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const
+    {
+        for (const Level& level : m_levels)
+            overlapping_in(level, box, max_grow, grow_of, nullptr, visit);
+    }
+    /// The same, visiting only the positions k whose bit (k % 64) of word k / 64 of `allowed`
+    /// is set (one bit per position of `items`).
+    template <class Grow, class Visit>
+    void overlapping_allowed(const Box3& box, double max_grow, const Grow& grow_of,
+        const std::uint64_t* allowed, const Visit& visit) const
+    {
+        for (const Level& level : m_levels)
+            overlapping_in(level, box, max_grow, grow_of, allowed, visit);
+    }
 
     /// Number of columns; the items filed in column c are at positions [column_begin(c),
     /// column_begin(c + 1)).
@@ -60,19 +77,48 @@ public:
 private:
     /// Columns of at most this many items are scanned from their start, without a search.
     static constexpr int short_column = 32;
+    /// At most this many levels: the first takes the boxes up to twice the median size (their
+    /// largest side), each next one up to level_ratio times as large, the last the rest.
+    static constexpr int max_levels = 4;
+    static constexpr double level_ratio = 4.0;
 
-    void size_columns();
+    /// One grid over the boxes of one size class, its columns numbered from first_column.
+    struct Level {
+        Box3 box;
+        double width = 0.0; ///< largest extent of a box on the sweep axis
+        double width_u = 0.0, width_v = 0.0; ///< ... on u = axis + 1 and v = axis + 2
+        double origin_u = 0.0, origin_v = 0.0; ///< low corner of the grid
+        double cell_u = 1.0, cell_v = 1.0; ///< cell sizes (>= the widths)
+        int columns_u = 1, columns_v = 1;
+        int first_column = 0;
+    };
+
+    void assign_levels();
+    void size_columns(Level& level, int level_index);
     void sort_into_columns();
     void store_boxes();
-    int column(double at_u, double at_v) const;
+    int column(const Level& level, double at_u, double at_v) const;
+    template <class Grow, class Visit>
+    void overlapping_in(const Level& level, const Box3& box, double max_grow, const Grow& grow_of,
+        const std::uint64_t* allowed, const Visit& visit) const;
+    /// Bits k .. k + 7 of `allowed` (positions below `end` only).
+    static unsigned allowed_bits(const std::uint64_t* allowed, int k, int end)
+    {
+        const int word = k / 64;
+        const int shift = k % 64;
+        std::uint64_t bits = allowed[word] >> shift;
+        if (shift > 56 && word * 64 + 64 < end)
+            bits |= allowed[word + 1] << (64 - shift);
+        return static_cast<unsigned>(bits & 0xFFu);
+    }
 
     int m_axis = 0;
     Box3 m_box;
-    double m_width = 0.0; ///< largest extent of a box on the sweep axis
-    double m_width_u = 0.0, m_width_v = 0.0; ///< ... on u = axis + 1 and v = axis + 2
-    double m_origin_u = 0.0, m_origin_v = 0.0; ///< low corner of the grid
-    double m_cell_u = 1.0, m_cell_v = 1.0; ///< cell sizes (>= the widths)
-    int m_columns_u = 1, m_columns_v = 1;
+    std::vector<Level> m_levels;
+    std::vector<int> m_level; ///< per item (in the order given), its index in m_levels
+    std::vector<Vec3> m_widths; ///< per level, the largest extent of its boxes on each axis
+    std::vector<double> m_sizes; ///< workspace: the largest side of each box
+    std::vector<double> m_median; ///< workspace of the median
     std::vector<int> m_column_start; ///< columns + 1, CSR into `items`
     /// The boxes in filed order, by axis, structure of arrays (the scans' loads).
     std::array<std::vector<double>, 3> m_lo, m_hi;
@@ -82,17 +128,15 @@ private:
 };
 
 template <class Grow, class Visit>
-void FaceGrid::overlapping(
-    const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const
+void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_grow,
+    const Grow& grow_of, const std::uint64_t* allowed, const Visit& visit) const
 {
     // The boxes that can overlap have their low corner in the columns from (box low -
     // grow - widest box) to (box high + grow), and in each column, their low end on the sweep
     // axis in the same range.
-    if (items.empty())
-        return;
     const Box3 widest(box.min().array() - max_grow, box.max().array() + max_grow);
-    if (!((widest.min().array() <= m_box.max().array()).all()
-            && (m_box.min().array() <= widest.max().array()).all()))
+    if (!((widest.min().array() <= level.box.max().array()).all()
+            && (level.box.min().array() <= widest.max().array()).all()))
         return;
     const int axis = m_axis;
     const int u = (axis + 1) % 3;
@@ -101,10 +145,13 @@ void FaceGrid::overlapping(
         const double at = std::floor((x - origin) / cell);
         return !(at >= 0.0) ? 0 : at >= count - 1 ? count - 1 : static_cast<int>(at); // NaN: 0
     };
-    const int u0 = index(widest.min()(u) - m_width_u, m_origin_u, m_cell_u, m_columns_u);
-    const int u1 = index(widest.max()(u), m_origin_u, m_cell_u, m_columns_u);
-    const int v0 = index(widest.min()(v) - m_width_v, m_origin_v, m_cell_v, m_columns_v);
-    const int v1 = index(widest.max()(v), m_origin_v, m_cell_v, m_columns_v);
+    const int u0
+        = index(widest.min()(u) - level.width_u, level.origin_u, level.cell_u, level.columns_u);
+    const int u1 = index(widest.max()(u), level.origin_u, level.cell_u, level.columns_u);
+    const int v0
+        = index(widest.min()(v) - level.width_v, level.origin_v, level.cell_v, level.columns_v);
+    const int v1 = index(widest.max()(v), level.origin_v, level.cell_v, level.columns_v);
+    const double width = level.width;
     const double* keys = m_lo[static_cast<std::size_t>(axis)].data();
     const double* lo_u = m_lo[static_cast<std::size_t>(u)].data();
     const double* lo_v = m_lo[static_cast<std::size_t>(v)].data();
@@ -114,7 +161,7 @@ void FaceGrid::overlapping(
     const int* face = m_index.data();
     for (int cv = v0; cv <= v1; ++cv)
         for (int cu = u0; cu <= u1; ++cu) {
-            const int c = cv * m_columns_u + cu;
+            const int c = level.first_column + cv * level.columns_u + cu;
             const int begin = m_column_start[static_cast<std::size_t>(c)];
             const int end = m_column_start[static_cast<std::size_t>(c + 1)];
             if (begin == end)
@@ -125,9 +172,9 @@ void FaceGrid::overlapping(
             const Box3 grown(box.min().array() - grow, box.max().array() + grow);
             // `from` a few ulps low: a box whose key is just below it cannot then overlap after
             // rounding, so the scan from a short column's start and the search agree.
-            const double from = grown.min()[axis] - m_width
+            const double from = grown.min()[axis] - width
                 - 4.0 * std::numeric_limits<double>::epsilon()
-                    * (std::abs(grown.min()[axis]) + m_width);
+                    * (std::abs(grown.min()[axis]) + width);
             const double to = grown.max()[axis];
             // A short column is scanned from its start (cheaper than the search).
             int k = end - begin <= short_column
@@ -155,6 +202,8 @@ void FaceGrid::overlapping(
                     m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
                 m = _mm512_mask_cmp_pd_mask(
                     m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
+                if (allowed != nullptr)
+                    m = static_cast<__mmask8>(m & allowed_bits(allowed, k, end));
                 for (unsigned bits = m; bits != 0; bits &= bits - 1) {
                     const int at = k + static_cast<int>(__builtin_ctz(bits));
                     visit(face[at], at);
@@ -166,7 +215,8 @@ void FaceGrid::overlapping(
             for (; k < end && keys[k] <= to; ++k)
                 if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
                     & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
-                    & (grown.min()(v) <= hi_v[k]))
+                    & (grown.min()(v) <= hi_v[k])
+                    & (allowed == nullptr || ((allowed[k / 64] >> (k % 64)) & 1u) != 0))
                     visit(face[k], k);
 #endif
         }

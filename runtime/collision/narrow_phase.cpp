@@ -688,12 +688,10 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
             return set_reach(query, r, column.box, column.motion.mean, column.motion.speed,
                 column.motion.spread, beaten);
         };
-        // Within the body, its own neighbourhood first, by the node's primitive's self row.
+        // Within the body, only the faces that the node's primitive's self row allows (none
+        // without a row), filtered with the boxes.
         const bool rows = bf == bn && !faces.self_bits.empty();
-        const int primitive = faces.node_primitive(item.index);
-        faces.grid.overlapping(item.box, r.most, column_grow, [&](int f, int k) {
-            if (rows && !self_row_allows(faces, primitive, k))
-                return;
+        const auto visit = [&](int f, int k) {
             const BodyData::FaceMotion& motion = faces.motion[static_cast<std::size_t>(k)];
             const double beaten
                 = found ? best.distance * best.distance : std::numeric_limits<double>::infinity();
@@ -717,7 +715,16 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
             best.barycentric = hit.closest.barycentric;
             best.normal = hit.normal;
             found = true;
-        });
+        };
+        if (!rows) {
+            faces.grid.overlapping(item.box, r.most, column_grow, visit);
+            continue;
+        }
+        const int primitive = faces.node_primitive(item.index);
+        const int row = primitive < 0 ? -1 : faces.self_row[static_cast<std::size_t>(primitive)];
+        if (row >= 0)
+            faces.grid.overlapping_allowed(item.box, r.most, column_grow,
+                faces.self_bits.data() + static_cast<std::size_t>(row) * faces.self_words, visit);
     }
     return found;
 }
