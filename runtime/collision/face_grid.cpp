@@ -1,5 +1,8 @@
 #include "runtime/collision/face_grid.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 namespace mat {
 
 namespace {
@@ -135,15 +138,19 @@ void FaceGrid::sort_into_columns()
     for (const GridItem& item : items)
         m_sorted[static_cast<std::size_t>(m_fill[static_cast<std::size_t>(item.column)]++)] = item;
     std::swap(items, m_sorted);
+    // Each column sorted by one task (a total order: the same for any thread count).
     const int axis = m_axis;
-    for (int c = 0; c < columns; ++c)
-        std::sort(items.begin() + m_column_start[static_cast<std::size_t>(c)],
-            items.begin() + m_column_start[static_cast<std::size_t>(c + 1)],
-            [axis](const GridItem& x, const GridItem& y) {
-                const double kx = sweep_key(x.box, axis);
-                const double ky = sweep_key(y.box, axis);
-                return kx < ky || (kx == ky && x.index < y.index);
-            });
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, columns, 64), [&](const tbb::blocked_range<int>& range) {
+            for (int c = range.begin(); c != range.end(); ++c)
+                std::sort(items.begin() + m_column_start[static_cast<std::size_t>(c)],
+                    items.begin() + m_column_start[static_cast<std::size_t>(c + 1)],
+                    [axis](const GridItem& x, const GridItem& y) {
+                        const double kx = sweep_key(x.box, axis);
+                        const double ky = sweep_key(y.box, axis);
+                        return kx < ky || (kx == ky && x.index < y.index);
+                    });
+        });
 }
 
 void FaceGrid::store_boxes()

@@ -163,24 +163,49 @@ void NarrowPhase::mark_self_rows(const NarrowPhaseBody& body, BodyData& data) co
     if (words > most_words)
         return;
     data.self_bits.assign(words, 0);
-    const auto mark = [&](int row, int p) {
-        std::uint64_t* bits
-            = data.self_bits.data() + static_cast<std::size_t>(row) * data.self_words;
-        for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
-            const int f = (*body.face_list)(j);
-            if (data.face_stamp[static_cast<std::size_t>(f)] != m_run)
-                continue;
-            const unsigned k
-                = static_cast<unsigned>(data.face_position[static_cast<std::size_t>(f)]);
-            bits[k / 64] |= std::uint64_t { 1 } << (k % 64);
-        }
-    };
+    // Each row's partners (CSR), then the rows in parallel: each row is written by one task,
+    // so the bits do not depend on the thread count.
+    const std::size_t rows = data.self_rowed.size();
+    data.row_partner_start.assign(rows + 1, 0);
+    for (const std::uint64_t key : data.self_pairs) {
+        ++data.row_partner_start[static_cast<std::size_t>(
+                                     data.self_row[static_cast<std::size_t>(key >> 32)])
+            + 1];
+        ++data.row_partner_start[static_cast<std::size_t>(
+                                     data.self_row[static_cast<std::size_t>(key & 0xffffffffu)])
+            + 1];
+    }
+    for (std::size_t r = 0; r < rows; ++r)
+        data.row_partner_start[r + 1] += data.row_partner_start[r];
+    data.row_partners.resize(static_cast<std::size_t>(data.row_partner_start[rows]));
+    data.row_fill.assign(data.row_partner_start.begin(), data.row_partner_start.end() - 1);
     for (const std::uint64_t key : data.self_pairs) {
         const int lo = static_cast<int>(key >> 32);
         const int hi = static_cast<int>(key & 0xffffffffu);
-        mark(data.self_row[static_cast<std::size_t>(lo)], hi);
-        mark(data.self_row[static_cast<std::size_t>(hi)], lo);
+        data.row_partners[static_cast<std::size_t>(
+            data.row_fill[static_cast<std::size_t>(data.self_row[static_cast<std::size_t>(lo)])]++)]
+            = hi;
+        data.row_partners[static_cast<std::size_t>(
+            data.row_fill[static_cast<std::size_t>(data.self_row[static_cast<std::size_t>(hi)])]++)]
+            = lo;
     }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rows, 4),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            for (std::size_t r = range.begin(); r != range.end(); ++r) {
+                std::uint64_t* bits = data.self_bits.data() + r * data.self_words;
+                for (int j = data.row_partner_start[r]; j < data.row_partner_start[r + 1]; ++j) {
+                    const int p = data.row_partners[static_cast<std::size_t>(j)];
+                    for (int i = (*body.face_indptr)(p); i < (*body.face_indptr)(p + 1); ++i) {
+                        const int f = (*body.face_list)(i);
+                        if (data.face_stamp[static_cast<std::size_t>(f)] != m_run)
+                            continue;
+                        const unsigned k = static_cast<unsigned>(
+                            data.face_position[static_cast<std::size_t>(f)]);
+                        bits[k / 64] |= std::uint64_t { 1 } << (k % 64);
+                    }
+                }
+            }
+        });
 }
 
 template <class Work>
@@ -265,50 +290,27 @@ void NarrowPhase::choose_sweep_axis()
 void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int axis)
 {
     data.grid.build(axis);
-    // Per position in the grid, the corners' motion (see Reach), then the body's
-    // mean velocity and spread over its active faces.
+    // Per position in the grid (in parallel: each position written by one task), its plane and
+    // the corners' motion (see Reach); then, in order, the body's mean velocity and spread over
+    // its active faces.
     const std::size_t n = data.grid.items.size();
     data.motion.assign(n, BodyData::FaceMotion {});
     data.geometry.resize(n);
     data.mean_velocity = Vec3::Zero();
     data.velocity_spread = 0.0;
-    for (std::size_t k = 0; k < n; ++k) {
-        NarrowFace& g = data.geometry[k];
-        const int f = data.grid.at(k).index;
-        g.p0 = corner(body, f, 0);
-        g.p1 = corner(body, f, 1);
-        g.p2 = corner(body, f, 2);
-        const Vec3 normal = (g.p1 - g.p0).cross(g.p2 - g.p0);
-        const double length = normal.norm();
-        g.degenerate = !(length > 0.0);
-        g.unit = g.degenerate ? Vec3(Vec3::UnitY()) : Vec3(normal / length);
-        g.normal_speed = 0.0;
-        if (body.velocities != nullptr) {
-            g.normal_speed = -std::numeric_limits<double>::infinity();
-            for (int c = 0; c < 3; ++c)
-                g.normal_speed = std::max(g.normal_speed,
-                    g.unit.dot(body.velocities->row((*body.faces)(f, c)).transpose()));
-        }
-    }
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k)
+                place_face(body, data, k);
+        });
     if (body.velocities == nullptr || n == 0) {
         summarize_columns(
             data.grid, [&](std::size_t k) -> const BodyData::FaceMotion& { return data.motion[k]; },
             data.columns);
         return;
     }
-    for (std::size_t k = 0; k < n; ++k) {
-        BodyData::FaceMotion& motion = data.motion[k];
-        std::array<Vec3, 3> v;
-        for (int c = 0; c < 3; ++c) {
-            v[static_cast<std::size_t>(c)]
-                = body.velocities->row((*body.faces)(data.grid.at(k).index, c)).transpose();
-            motion.speed = std::max(motion.speed, v[static_cast<std::size_t>(c)].norm());
-        }
-        motion.mean = (v[0] + v[1] + v[2]) / 3.0;
-        for (const Vec3& corner_velocity : v)
-            motion.spread = std::max(motion.spread, (corner_velocity - motion.mean).norm());
+    for (const BodyData::FaceMotion& motion : data.motion)
         data.mean_velocity += motion.mean;
-    }
     data.mean_velocity /= static_cast<double>(n);
     for (const BodyData::FaceMotion& motion : data.motion)
         data.velocity_spread = std::max(
@@ -316,6 +318,33 @@ void NarrowPhase::file_faces(const NarrowPhaseBody& body, BodyData& data, int ax
     summarize_columns(
         data.grid, [&](std::size_t k) -> const BodyData::FaceMotion& { return data.motion[k]; },
         data.columns);
+}
+
+void NarrowPhase::place_face(const NarrowPhaseBody& body, BodyData& data, std::size_t k)
+{
+    NarrowFace& g = data.geometry[k];
+    const int f = data.grid.at(k).index;
+    g.p0 = corner(body, f, 0);
+    g.p1 = corner(body, f, 1);
+    g.p2 = corner(body, f, 2);
+    const Vec3 normal = (g.p1 - g.p0).cross(g.p2 - g.p0);
+    const double length = normal.norm();
+    g.degenerate = !(length > 0.0);
+    g.unit = g.degenerate ? Vec3(Vec3::UnitY()) : Vec3(normal / length);
+    g.normal_speed = 0.0;
+    if (body.velocities == nullptr)
+        return;
+    BodyData::FaceMotion& motion = data.motion[k];
+    std::array<Vec3, 3> v;
+    g.normal_speed = -std::numeric_limits<double>::infinity();
+    for (int c = 0; c < 3; ++c) {
+        v[static_cast<std::size_t>(c)] = body.velocities->row((*body.faces)(f, c)).transpose();
+        g.normal_speed = std::max(g.normal_speed, g.unit.dot(v[static_cast<std::size_t>(c)]));
+        motion.speed = std::max(motion.speed, v[static_cast<std::size_t>(c)].norm());
+    }
+    motion.mean = (v[0] + v[1] + v[2]) / 3.0;
+    for (const Vec3& corner_velocity : v)
+        motion.spread = std::max(motion.spread, (corner_velocity - motion.mean).norm());
 }
 
 bool NarrowPhase::self_pair_allowed(int body, int face_a, int face_b, bool node_a) const

@@ -39,6 +39,9 @@
 #include <cstdint>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/eigen_types.hpp"
 #include "runtime/collision/face_grid.hpp"
 
@@ -267,6 +270,9 @@ private:
         std::vector<int> face_position; ///< #F, the face's position in `grid` (active faces)
         std::vector<int> self_row; ///< #P, the primitive's row (-1: none)
         std::vector<int> self_rowed; ///< the primitives with a row this run
+        /// Per row, its partner primitives (CSR, row_partner_start has rows + 1 entries).
+        std::vector<int> row_partner_start, row_partners;
+        std::vector<int> row_fill; ///< workspace of the CSR
         std::vector<std::uint64_t> self_bits; ///< rows x self_words (empty: too large, none)
         std::size_t self_words = 0;
     };
@@ -302,6 +308,8 @@ private:
         std::vector<BodyData::ColumnMotion>& columns);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
     /// A body's self rows (BodyData::self_bits), after file_faces.
+    /// The plane and the corners' motion of the face at grid position k (file_faces).
+    static void place_face(const NarrowPhaseBody& body, BodyData& data, std::size_t k);
     void mark_self_rows(const NarrowPhaseBody& body, BodyData& data) const;
     /// Whether the face at grid position `position` of a body may pair, within it, with
     /// primitive `primitive` (self_pair_allowed through the body's self rows).
@@ -374,24 +382,28 @@ template <class MotionAt>
 void NarrowPhase::summarize_columns(
     const FaceGrid& grid, const MotionAt& motion_at, std::vector<BodyData::ColumnMotion>& columns)
 {
+    // In parallel over the columns, each written by one task.
     columns.resize(static_cast<std::size_t>(grid.num_columns()));
-    for (int c = 0; c < grid.num_columns(); ++c) {
-        BodyData::ColumnMotion& column = columns[static_cast<std::size_t>(c)];
-        const std::size_t begin = static_cast<std::size_t>(grid.column_begin(c));
-        const std::size_t end = static_cast<std::size_t>(grid.column_begin(c + 1));
-        column = BodyData::ColumnMotion {};
-        if (begin == end)
-            continue;
-        for (std::size_t k = begin; k < end; ++k) {
-            column.box.extend(grid.at(k).box);
-            column.motion.speed = std::max(column.motion.speed, motion_at(k).speed);
-            column.motion.mean += motion_at(k).mean;
-        }
-        column.motion.mean /= static_cast<double>(end - begin);
-        for (std::size_t k = begin; k < end; ++k)
-            column.motion.spread = std::max(column.motion.spread,
-                (motion_at(k).mean - column.motion.mean).norm() + motion_at(k).spread);
-    }
+    tbb::parallel_for(tbb::blocked_range<int>(0, grid.num_columns(), 64),
+        [&](const tbb::blocked_range<int>& range) {
+            for (int c = range.begin(); c != range.end(); ++c) {
+                BodyData::ColumnMotion& column = columns[static_cast<std::size_t>(c)];
+                const std::size_t begin = static_cast<std::size_t>(grid.column_begin(c));
+                const std::size_t end = static_cast<std::size_t>(grid.column_begin(c + 1));
+                column = BodyData::ColumnMotion {};
+                if (begin == end)
+                    continue;
+                for (std::size_t k = begin; k < end; ++k) {
+                    column.box.extend(grid.at(k).box);
+                    column.motion.speed = std::max(column.motion.speed, motion_at(k).speed);
+                    column.motion.mean += motion_at(k).mean;
+                }
+                column.motion.mean /= static_cast<double>(end - begin);
+                for (std::size_t k = begin; k < end; ++k)
+                    column.motion.spread = std::max(column.motion.spread,
+                        (motion_at(k).mean - column.motion.mean).norm() + motion_at(k).spread);
+            }
+        });
 }
 
 } // namespace mat
