@@ -101,10 +101,10 @@ void FaceGrid::size_columns(Level& level, int level_index)
     level.origin_v = box.isEmpty() ? 0.0 : box.min()(v);
     const double size_u = box.isEmpty() ? 0.0 : box.sizes()(u);
     const double size_v = box.isEmpty() ? 0.0 : box.sizes()(v);
-    // Columns: no narrower than the widest box, at most max_columns per side.
+    // Columns: no narrower than cell_widths times the widest box, at most max_columns per side.
     constexpr int max_columns = 64;
-    level.cell_u = std::max({ width(u), size_u / max_columns, 1e-300 });
-    level.cell_v = std::max({ width(v), size_v / max_columns, 1e-300 });
+    level.cell_u = std::max({ cell_widths * width(u), size_u / max_columns, 1e-300 });
+    level.cell_v = std::max({ cell_widths * width(v), size_v / max_columns, 1e-300 });
     const auto count = [](double size, double cell) {
         const double n = size / cell; // NaN with non-finite positions: 1 column
         if (!(n >= 0.0))

@@ -118,9 +118,9 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     for_each_body(
         bodies, [&](const NarrowPhaseBody& body, BodyData& data) { collect_active(body, data); });
     // The sweep axis: the longest side of the active triangles' box. Across it, a grid of
-    // columns (cells at least as wide as the widest triangle, so that a triangle is filed in the
-    // column of its low corner and looked up in the neighbouring ones); within a column, the
-    // triangles are sorted along the sweep axis.
+    // columns per size class of triangles (cells at least twice as wide as the class's widest
+    // triangle, so that a triangle is filed in the column of its low corner and looked up in
+    // the neighbouring ones); within a column, the triangles are sorted along the sweep axis.
     choose_sweep_axis();
     const int axis = m_axis;
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
@@ -189,23 +189,69 @@ void NarrowPhase::mark_self_rows(const NarrowPhaseBody& body, BodyData& data) co
             data.row_fill[static_cast<std::size_t>(data.self_row[static_cast<std::size_t>(hi)])]++)]
             = lo;
     }
+    // Each rowed primitive's active faces as words of bits over the positions (at most one
+    // word per face: a segment of that many per row), then each row as the union of its
+    // partners' words.
+    data.row_word_start.resize(rows + 1);
+    data.row_word_start[0] = 0;
+    for (std::size_t r = 0; r < rows; ++r) {
+        const int p = data.self_rowed[r];
+        data.row_word_start[r + 1]
+            = data.row_word_start[r] + (*body.face_indptr)(p + 1) - (*body.face_indptr)(p);
+    }
+    data.row_word_count.resize(rows);
+    data.row_word_index.resize(static_cast<std::size_t>(data.row_word_start[rows]));
+    data.row_word_bits.resize(static_cast<std::size_t>(data.row_word_start[rows]));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rows, 8),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            for (std::size_t r = range.begin(); r != range.end(); ++r)
+                primitive_words(body, data, r);
+        });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rows, 4),
         [&](const tbb::blocked_range<std::size_t>& range) {
             for (std::size_t r = range.begin(); r != range.end(); ++r) {
                 std::uint64_t* bits = data.self_bits.data() + r * data.self_words;
                 for (int j = data.row_partner_start[r]; j < data.row_partner_start[r + 1]; ++j) {
-                    const int p = data.row_partners[static_cast<std::size_t>(j)];
-                    for (int i = (*body.face_indptr)(p); i < (*body.face_indptr)(p + 1); ++i) {
-                        const int f = (*body.face_list)(i);
-                        if (data.face_stamp[static_cast<std::size_t>(f)] != m_run)
-                            continue;
-                        const unsigned k = static_cast<unsigned>(
-                            data.face_position[static_cast<std::size_t>(f)]);
-                        bits[k / 64] |= std::uint64_t { 1 } << (k % 64);
-                    }
+                    const std::size_t pr
+                        = static_cast<std::size_t>(data.self_row[static_cast<std::size_t>(
+                            data.row_partners[static_cast<std::size_t>(j)])]);
+                    const int begin = data.row_word_start[pr];
+                    const int end = begin + data.row_word_count[pr];
+                    for (int w = begin; w < end; ++w)
+                        bits[data.row_word_index[static_cast<std::size_t>(w)]]
+                            |= data.row_word_bits[static_cast<std::size_t>(w)];
                 }
             }
         });
+}
+
+void NarrowPhase::primitive_words(const NarrowPhaseBody& body, BodyData& data, std::size_t r) const
+{
+    // The positions of the primitive's active faces, sorted in its segment, then merged by word.
+    const int p = data.self_rowed[r];
+    const std::size_t begin = static_cast<std::size_t>(data.row_word_start[r]);
+    std::uint32_t* positions = data.row_word_index.data() + begin;
+    std::size_t count = 0;
+    for (int i = (*body.face_indptr)(p); i < (*body.face_indptr)(p + 1); ++i) {
+        const int f = (*body.face_list)(i);
+        if (data.face_stamp[static_cast<std::size_t>(f)] == m_run)
+            positions[count++]
+                = static_cast<std::uint32_t>(data.face_position[static_cast<std::size_t>(f)]);
+    }
+    std::sort(positions, positions + count);
+    std::size_t words = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+        const std::uint32_t word = positions[i] / 64;
+        const std::uint64_t bit = std::uint64_t { 1 } << (positions[i] % 64);
+        if (words > 0 && data.row_word_index[begin + words - 1] == word) {
+            data.row_word_bits[begin + words - 1] |= bit;
+        } else {
+            data.row_word_index[begin + words] = word;
+            data.row_word_bits[begin + words] = bit;
+            ++words;
+        }
+    }
+    data.row_word_count[r] = static_cast<int>(words);
 }
 
 template <class Work>

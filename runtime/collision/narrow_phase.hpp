@@ -18,8 +18,9 @@
 //   1. each primitive's region is the union of its pairs' regions; its triangles and nodes in
 //      that region are marked active (a triangle enclosed by several primitives once);
 //   2. each body's active triangles are filed in a grid of columns across one axis (the longest
-//      side of their box; cells no narrower than the widest triangle, by the low corner of the
-//      triangle's box) and sorted along that axis within a column;
+//      side of their box; cells no narrower than twice the widest triangle, by the low corner
+//      of the triangle's box; a grid per size class where the sizes differ by more than 2x the
+//      median, face_grid.hpp) and sorted along that axis within a column;
 //   3. every active triangle (and node) looks up the boxes that overlap its own in the other
 //      side's neighbouring columns (a scan from the column's start, or past a binary search in
 //      a long column; with AVX-512, eight boxes per comparison), so each candidate is found and
@@ -273,6 +274,11 @@ private:
         /// Per row, its partner primitives (CSR, row_partner_start has rows + 1 entries).
         std::vector<int> row_partner_start, row_partners;
         std::vector<int> row_fill; ///< workspace of the CSR
+        /// Per row, its primitive's active faces as (word index, bits) over the grid positions:
+        /// row_word_count[r] words from row_word_start[r].
+        std::vector<int> row_word_start, row_word_count;
+        std::vector<std::uint32_t> row_word_index;
+        std::vector<std::uint64_t> row_word_bits;
         std::vector<std::uint64_t> self_bits; ///< rows x self_words (empty: too large, none)
         std::size_t self_words = 0;
     };
@@ -311,6 +317,8 @@ private:
     /// The plane and the corners' motion of the face at grid position k (file_faces).
     static void place_face(const NarrowPhaseBody& body, BodyData& data, std::size_t k);
     void mark_self_rows(const NarrowPhaseBody& body, BodyData& data) const;
+    /// Row r's primitive's active faces as words of bits (mark_self_rows).
+    void primitive_words(const NarrowPhaseBody& body, BodyData& data, std::size_t r) const;
     /// Whether the face at grid position `position` of a body may pair, within it, with
     /// primitive `primitive` (self_pair_allowed through the body's self rows).
     static bool self_row_allows(const BodyData& data, int primitive, int position)
