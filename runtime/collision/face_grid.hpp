@@ -131,6 +131,12 @@ private:
     std::vector<int> m_index;
     std::vector<int> m_fill; ///< columns, scatter cursors
     std::vector<GridItem> m_sorted; ///< workspace of the counting sort
+    struct SortKey {
+        double key; ///< the low end on the sweep axis (NaN: -infinity)
+        int index; ///< the item's index, for ties
+        int from; ///< the item's position before the sort
+    };
+    std::vector<SortKey> m_keys; ///< workspace of the sort
 };
 
 template <class Grow, class Visit>
