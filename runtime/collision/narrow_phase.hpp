@@ -17,7 +17,7 @@
 // step:
 //   1. each primitive's region is the union of its pairs' regions; its triangles and nodes in
 //      that region are marked active (a triangle enclosed by several primitives once);
-//   2. each body's active triangles are filed in a grid of columns across one axis (the longest
+//   2. each body's active triangles are filed in a grid of columns across one axis (the shortest
 //      side of their box; cells no narrower than twice the widest triangle, by the low corner
 //      of the triangle's box; a grid per size class where the sizes differ by more than 2x the
 //      median, face_grid.hpp) and sorted along that axis within a column;
@@ -302,7 +302,7 @@ private:
     void extend_region(int body, int primitive, const Box3& region);
     /// Files a body's triangles and nodes that lie in the regions of its active primitives.
     void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
-    /// m_axis: the longest side of the box of every body's active triangles.
+    /// m_axis: the shortest side of the box of every body's active triangles.
     void choose_sweep_axis();
     /// Files a body's active triangles in its grid along `axis`, with their corners' motion.
     static void file_faces(const NarrowPhaseBody& body, BodyData& data, int axis);
