@@ -94,7 +94,7 @@ private:
         double width = 0.0; ///< largest extent of a box on the sweep axis
         double width_u = 0.0, width_v = 0.0; ///< ... on u = axis + 1 and v = axis + 2
         double origin_u = 0.0, origin_v = 0.0; ///< low corner of the grid
-        double cell_u = 1.0, cell_v = 1.0; ///< cell sizes (>= the widths)
+        double cell_u = 1.0, cell_v = 1.0; ///< cell sizes (>= cell_widths x the widths)
         int columns_u = 1, columns_v = 1;
         int first_column = 0;
     };
