@@ -18,9 +18,6 @@ namespace {
 void FaceGrid::build(int axis)
 {
     m_axis = axis;
-    m_box = Box3();
-    for (const GridItem& item : items)
-        m_box.extend(item.box);
     assign_levels();
     int columns = 0;
     for (std::size_t l = 0; l < m_levels.size(); ++l) {

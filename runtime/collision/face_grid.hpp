@@ -38,8 +38,6 @@ public:
     /// Files `items` along sweep axis `axis`, sorted by (column, low end on the axis, index);
     /// the columns of a level of larger boxes come after those of the smaller ones.
     void build(int axis);
-    /// The box of all the boxes (empty if there are none).
-    const Box3& box() const { return m_box; }
     /// The item filed at position k (the order of the visits' positions).
     const GridItem& at(std::size_t k) const { return items[k]; }
 
@@ -119,7 +117,6 @@ private:
     }
 
     int m_axis = 0;
-    Box3 m_box;
     std::vector<Level> m_levels;
     std::vector<int> m_level; ///< per item (in the order given), its index in m_levels
     std::vector<Vec3> m_widths; ///< per level, the largest extent of its boxes on each axis
