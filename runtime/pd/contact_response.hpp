@@ -19,10 +19,10 @@ public:
 
     /// Length of a response vector (k reduced, n full).
     virtual Index response_size() const = 0;
-    /// A new step of contacts: the responses not asked for in the last step may be forgotten.
+    /// A new step of contacts: responses kept from earlier steps may be forgotten.
     virtual void begin_contacts() = 0;
-    /// z_j, computed the first time it is asked for (and kept while it is asked for each step);
-    /// the reference stays valid until the next begin_contacts().
+    /// z_j, computed the first time it is asked for (and kept for later steps while a budget
+    /// allows); the reference stays valid until the next begin_contacts().
     virtual Eigen::Ref<const VecX> node_response(int node) = 0;
     /// How far node i moves along a response: the row of node i applied to `response`.
     virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;

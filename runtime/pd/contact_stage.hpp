@@ -234,8 +234,11 @@ private:
         std::array<const double*, 2> response {};
         std::array<double, 2> scale {};
     };
-    /// W between contact c and a column's contact.
-    double column_entry(Index c, const ColumnSides& column) const;
+    /// out[e] = W between contacts[e] and the contact of *columns[e], for e in [0, count):
+    /// sum over the sides of both on one body of the column side's scale times side_apply(),
+    /// several products at a time.
+    void column_entries(
+        const Index* contacts, const ColumnSides* const* columns, int count, double* out) const;
     Vec3 side_position(const Side& side) const;
     /// m_free: each contact's point in its bodies' kept solutions (in parallel for many).
     void compute_free_positions();

@@ -50,6 +50,18 @@ namespace {
 
     /// f(i) for i in [0, n), in parallel when n is large enough to pay for it: each i writes
     /// only its own results, so they do not depend on the thread count.
+    /// f(begin, end) over [0, n) in blocks, in parallel when n is large enough to pay for it
+    /// (as for_each_index).
+    template <class F> void for_each_block(Index n, const F& f, Index grain = 64)
+    {
+        if (n <= grain) {
+            f(Index { 0 }, n);
+            return;
+        }
+        tbb::parallel_for(tbb::blocked_range<Index>(0, n, grain),
+            [&](const tbb::blocked_range<Index>& range) { f(range.begin(), range.end()); });
+    }
+
     template <class F> void for_each_index(Index n, const F& f, Index grain = 64)
     {
         if (n <= grain) {
@@ -64,7 +76,100 @@ namespace {
             });
     }
 
+    /// A sparse direction's product with a dense response (ContactStage::side_apply), to be
+    /// taken several at a time.
+    struct SparseDot {
+        const int* index = nullptr;
+        const double* value = nullptr;
+        int count = 0;
+        const double* z = nullptr;
+        double result = 0.0;
+    };
+
+    /// Each dot's sum, in its own order (the same as side_apply's, so the same bits), four
+    /// chains at a time: a dot is a chain of dependent multiply-adds, and four of them
+    /// interleaved keep the multiply-add units busy instead of waiting on each add.
+    void sparse_dots(SparseDot* dots, int n)
+    {
+        int d = 0;
+        for (; d + 4 <= n; d += 4) {
+            SparseDot& a = dots[d];
+            SparseDot& b = dots[d + 1];
+            SparseDot& c = dots[d + 2];
+            SparseDot& e = dots[d + 3];
+            const int shared = std::min(std::min(a.count, b.count), std::min(c.count, e.count));
+            double sa = 0.0, sb = 0.0, sc = 0.0, se = 0.0;
+            for (int i = 0; i < shared; ++i) {
+                sa += a.value[i] * a.z[a.index[i]];
+                sb += b.value[i] * b.z[b.index[i]];
+                sc += c.value[i] * c.z[c.index[i]];
+                se += e.value[i] * e.z[e.index[i]];
+            }
+            for (int i = shared; i < a.count; ++i)
+                sa += a.value[i] * a.z[a.index[i]];
+            for (int i = shared; i < b.count; ++i)
+                sb += b.value[i] * b.z[b.index[i]];
+            for (int i = shared; i < c.count; ++i)
+                sc += c.value[i] * c.z[c.index[i]];
+            for (int i = shared; i < e.count; ++i)
+                se += e.value[i] * e.z[e.index[i]];
+            a.result = sa;
+            b.result = sb;
+            c.result = sc;
+            e.result = se;
+        }
+        for (; d < n; ++d) {
+            double sum = 0.0;
+            for (int i = 0; i < dots[d].count; ++i)
+                sum += dots[d].value[i] * dots[d].z[dots[d].index[i]];
+            dots[d].result = sum;
+        }
+    }
+
 } // namespace
+
+void ContactStage::column_entries(
+    const Index* contacts, const ColumnSides* const* columns, int count, double* out) const
+{
+    // Each entry's products (at most two sides of the row's contact by two of the column's),
+    // then each entry summed over them, column sides outer, row sides inner.
+    constexpr int block = 8;
+    std::array<SparseDot, 4 * block> dots;
+    std::array<double, 4 * block> scales {};
+    std::array<int, block + 1> first {};
+    for (int begin = 0; begin < count; begin += block) {
+        const int end = std::min(count, begin + block);
+        int n = 0;
+        for (int e = begin; e < end; ++e) {
+            first[static_cast<std::size_t>(e - begin)] = n;
+            const Record& record_c = m_records[static_cast<std::size_t>(contacts[e])];
+            const ColumnSides& column = *columns[e];
+            for (int sd = 0; sd < column.count; ++sd)
+                for (int sc = 0; sc < record_c.num_sides; ++sc) {
+                    const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
+                    if (side_c.body != column.body[static_cast<std::size_t>(sd)])
+                        continue;
+                    SparseDot& dot = dots[static_cast<std::size_t>(n)];
+                    dot.index = m_dir_index.data() + side_c.dir_first;
+                    dot.value = m_dir_value.data() + side_c.dir_first;
+                    dot.count = side_c.dir_count;
+                    dot.z = column.response[static_cast<std::size_t>(sd)];
+                    scales[static_cast<std::size_t>(n++)]
+                        = column.scale[static_cast<std::size_t>(sd)];
+                }
+        }
+        first[static_cast<std::size_t>(end - begin)] = n;
+        sparse_dots(dots.data(), n);
+        for (int e = begin; e < end; ++e) {
+            double sum = 0.0;
+            for (int k = first[static_cast<std::size_t>(e - begin)];
+                 k < first[static_cast<std::size_t>(e - begin + 1)]; ++k)
+                sum += scales[static_cast<std::size_t>(k)]
+                    * dots[static_cast<std::size_t>(k)].result;
+            out[e] = sum;
+        }
+    }
+}
 
 void ContactStage::compute_free_positions()
 {
@@ -104,20 +209,6 @@ void ContactStage::turn_planes()
     });
 }
 
-double ContactStage::column_entry(Index c, const ColumnSides& column) const
-{
-    const Record& record_c = m_records[static_cast<std::size_t>(c)];
-    double sum = 0.0;
-    for (int sd = 0; sd < column.count; ++sd)
-        for (int sc = 0; sc < record_c.num_sides; ++sc) {
-            const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
-            if (side_c.body == column.body[static_cast<std::size_t>(sd)])
-                sum += column.scale[static_cast<std::size_t>(sd)]
-                    * side_apply(side_c, column.response[static_cast<std::size_t>(sd)]);
-        }
-    return sum;
-}
-
 // A new row: W between c and each contact with a column (their responses kept by column()).
 int ContactStage::cover(Index c)
 {
@@ -127,8 +218,20 @@ int ContactStage::cover(Index c)
     const Index rows = static_cast<Index>(m_rows.size());
     const Index cols = static_cast<Index>(m_cols.size());
     reserve_block(m_columns, rows, cols, std::max<Index>(rows + 1, 64), std::max<Index>(cols, 16));
-    for_each_index(cols, [&](Index p) {
-        m_columns(rows, p) = column_entry(c, m_column_sides[static_cast<std::size_t>(p)]);
+    for_each_block(cols, [&](Index begin, Index end) {
+        std::array<Index, 64> contact;
+        std::array<const ColumnSides*, 64> sides {};
+        std::array<double, 64> entry {};
+        contact.fill(c);
+        for (Index p = begin; p < end; p += 64) {
+            const int n = static_cast<int>(std::min<Index>(64, end - p));
+            for (int k = 0; k < n; ++k)
+                sides[static_cast<std::size_t>(k)]
+                    = &m_column_sides[static_cast<std::size_t>(p + k)];
+            column_entries(contact.data(), sides.data(), n, entry.data());
+            for (int k = 0; k < n; ++k)
+                m_columns(rows, p + k) = entry[static_cast<std::size_t>(k)];
+        }
     });
     m_diagonal(c) = coupling_between(c, c);
     m_rows.push_back(c);
@@ -157,8 +260,12 @@ const double* ContactStage::column(Index d)
             sides.scale[static_cast<std::size_t>(sd)] = scale;
             sides.body[static_cast<std::size_t>(sd)] = side_d.body;
         }
-        for_each_index(rows, [&](Index r) {
-            m_columns(r, cols) = column_entry(m_rows[static_cast<std::size_t>(r)], sides);
+        for_each_block(rows, [&](Index begin, Index end) {
+            std::array<const ColumnSides*, 64> column {};
+            column.fill(&sides);
+            for (Index r = begin; r < end; r += 64)
+                column_entries(m_rows.data() + r, column.data(),
+                    static_cast<int>(std::min<Index>(64, end - r)), &m_columns(r, cols));
         });
         m_cols.push_back(d);
         m_column_sides.push_back(sides);

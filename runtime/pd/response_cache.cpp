@@ -1,24 +1,46 @@
 #include "runtime/pd/response_cache.hpp"
 
+#include <algorithm>
+
 #include "common/error.hpp"
 
 namespace mat {
 
-ResponseCache::ResponseCache(Index num_nodes, Index rows)
+ResponseCache::ResponseCache(Index num_nodes, Index rows, std::size_t budget_bytes)
     : m_rows(rows)
+    , m_capacity(std::max<Index>(block_columns,
+          static_cast<Index>(budget_bytes / (sizeof(double) * std::max<std::size_t>(1, rows)))))
     , m_slot(static_cast<std::size_t>(num_nodes), -1)
 {
 }
 
+Index ResponseCache::kept() const
+{
+    return static_cast<Index>(m_node_of.size() - m_free.size());
+}
+
 void ResponseCache::begin_step()
 {
-    for (std::size_t s = 0; s < m_node_of.size(); ++s) {
-        if (m_node_of[s] >= 0 && !m_asked[s]) {
-            m_slot[static_cast<std::size_t>(m_node_of[s])] = -1;
-            m_node_of[s] = -1;
-            m_free.push_back(static_cast<int>(s));
-        }
-        m_asked[s] = 0;
+    ++m_step;
+    const Index excess = kept() - m_capacity;
+    if (excess <= 0)
+        return;
+    // The kept slots, those asked for longest ago first (then by slot: the same order on any
+    // run), and the first `excess` of them forgotten.
+    m_order.clear();
+    for (std::size_t s = 0; s < m_node_of.size(); ++s)
+        if (m_node_of[s] >= 0)
+            m_order.push_back(static_cast<int>(s));
+    std::sort(m_order.begin(), m_order.end(), [this](int a, int b) {
+        const long asked_a = m_asked[static_cast<std::size_t>(a)];
+        const long asked_b = m_asked[static_cast<std::size_t>(b)];
+        return asked_a != asked_b ? asked_a < asked_b : a < b;
+    });
+    for (Index k = 0; k < excess; ++k) {
+        const int s = m_order[static_cast<std::size_t>(k)];
+        m_slot[static_cast<std::size_t>(m_node_of[static_cast<std::size_t>(s)])] = -1;
+        m_node_of[static_cast<std::size_t>(s)] = -1;
+        m_free.push_back(s);
     }
 }
 
@@ -42,7 +64,7 @@ Eigen::Ref<VecX> ResponseCache::column(int node, bool& fresh)
         m_free.pop_back();
         m_node_of[static_cast<std::size_t>(slot)] = node;
     }
-    m_asked[static_cast<std::size_t>(slot)] = 1;
+    m_asked[static_cast<std::size_t>(slot)] = m_step;
     return m_blocks[static_cast<std::size_t>(slot / block_columns)].col(slot % block_columns);
 }
 
