@@ -116,6 +116,8 @@ public:
     virtual const double* column(Index c) = 0;
     /// positions.row(c) = free.row(c) + sum_d D_cd forces.row(d), for every contact c with
     /// keep[c] == 0 (`keep` null: every contact).   free, forces, positions  m x 3
+    /// (`free` is solve_plane_contacts' free_positions; a coupling that holds the free positions
+    /// itself, as the contact stage does, may take them from there instead.)
     virtual void displace(const Eigen::Ref<const MatX3>& free,
         const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
         Eigen::Ref<MatX3> positions)

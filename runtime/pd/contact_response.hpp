@@ -37,6 +37,14 @@ public:
     virtual void direction(const int* nodes, const double* weights, int count,
         std::vector<int>& index, std::vector<double>& value, Vec3& offset,
         std::vector<int>& slots) const = 0;
+    /// The kept solution's rows (u above): coordinate j of row i at
+    /// data[i * row_stride + j * column_stride], valid until the solution is replaced.
+    struct Rows {
+        const double* data = nullptr;
+        Index row_stride = 0;
+        Index column_stride = 0;
+    };
+    virtual Rows solution_rows() const = 0;
     /// Node i's position in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
     /// The point of a direction in the kept solution.

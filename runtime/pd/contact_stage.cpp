@@ -254,7 +254,7 @@ void ContactStage::begin_step(
     const Index m = static_cast<Index>(m_records.size());
     if (m_free.rows() != m) {
         m_diagonal.resize(m);
-        m_free.resize(m, 3);
+        m_free = MatX3::Zero(m, 3); // not read: displace() takes the kept solutions
         m_start.resize(m, 3);
         m_forces.resize(m, 3);
         m_positions.resize(m, 3);
@@ -412,7 +412,6 @@ void ContactStage::solve(bool last)
     if (m == 0)
         return;
     Timer timer;
-    compute_free_positions();
     // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
     // iterate they push still moves; the last iteration's solve is the one that must hold).
     ContactSettings settings = m_settings;

@@ -240,8 +240,6 @@ private:
     void column_entries(
         const Index* contacts, const ColumnSides* const* columns, int count, double* out) const;
     Vec3 side_position(const Side& side) const;
-    /// m_free: each contact's point in its bodies' kept solutions (in parallel for many).
-    void compute_free_positions();
     /// After a solve before the step's last: each plane that follows the iterate, of a contact
     /// that has been in a working set, takes its face's outward normal in the kept solutions
     /// (the iterate's positions; docs/method.md, "Planes that follow the iterate").
@@ -279,7 +277,7 @@ private:
     std::vector<int> m_row_of, m_column_of; ///< per contact, its row / column (-1: none yet)
     std::vector<Index> m_rows, m_cols; ///< the contacts by row / column
     std::vector<ColumnSides> m_column_sides; ///< per column
-    MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3
+    MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3 (m_free unused: see displace())
     ContactScratch m_scratch;
     ContactSettings m_settings;
     int m_sweeps = 0;

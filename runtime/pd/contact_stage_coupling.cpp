@@ -171,17 +171,6 @@ void ContactStage::column_entries(
     }
 }
 
-void ContactStage::compute_free_positions()
-{
-    for_each_index(static_cast<Index>(m_records.size()), [&](Index a) {
-        const Record& record = m_records[static_cast<std::size_t>(a)];
-        Vec3 x = Vec3::Zero();
-        for (int s = 0; s < record.num_sides; ++s)
-            x += side_position(record.sides[static_cast<std::size_t>(s)]);
-        m_free.row(a) = x.transpose();
-    });
-}
-
 void ContactStage::turn_planes()
 {
     for_each_index(static_cast<Index>(m_rows.size()), [&](Index row) {
@@ -360,23 +349,45 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
 }
 
 // x_c = x_free_c + sum over c's sides of J_cb (sum_d z_d f_d^T): the same as W f, without W.
-void ContactStage::displace(const Eigen::Ref<const MatX3>& free,
+// The free positions are those of the bodies' kept solutions u, so x_c is taken in one pass as
+// the point of c's sides at u + sum_d z_d f_d^T (`free` is not read; docs/method.md, "W is
+// never formed whole").
+void ContactStage::displace(const Eigen::Ref<const MatX3>& /*free*/,
     const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
     Eigen::Ref<MatX3> positions)
 {
     sum_responses(forces, false);
+    // Each body's displaced solution, in place of its displacement, over the rows read.
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
+        if (m_solvers[b] == nullptr)
+            continue;
+        BodyData& data = m_data[b];
+        const ContactResponse::Rows u = m_solvers[b]->contact_response().solution_rows();
+        const auto add_row = [&](Index r) {
+            for (int j = 0; j < 3; ++j)
+                data.displacement(r, j) += u.data[r * u.row_stride + j * u.column_stride];
+        };
+        if (data.read_rows.empty())
+            for (Index r = 0; r < data.displacement.rows(); ++r)
+                add_row(r);
+        else
+            for (const int r : data.read_rows)
+                add_row(r);
+    }
     const Index m = static_cast<Index>(m_records.size());
     for_each_index(m, [&](Index c) {
         if (keep != nullptr && (*keep)[static_cast<std::size_t>(c)])
             return;
         const Record& record = m_records[static_cast<std::size_t>(c)];
-        Eigen::RowVector3d x = free.row(c);
+        Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
-            const MatX3& displacement = m_data[static_cast<std::size_t>(side.body)].displacement;
+            const MatX3& displaced = m_data[static_cast<std::size_t>(side.body)].displacement;
+            Eigen::RowVector3d point = side.offset.transpose();
             for (int i = side.dir_first; i < side.dir_first + side.dir_count; ++i)
-                x += m_dir_value[static_cast<std::size_t>(i)]
-                    * displacement.row(m_dir_index[static_cast<std::size_t>(i)]);
+                point += m_dir_value[static_cast<std::size_t>(i)]
+                    * displaced.row(m_dir_index[static_cast<std::size_t>(i)]);
+            x += point;
         }
         positions.row(c) = x;
     });

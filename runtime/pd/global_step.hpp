@@ -94,6 +94,7 @@ public:
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override;
+    Rows solution_rows() const override { return { m_q.data(), 1, m_q.rows() }; }
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
@@ -141,6 +142,7 @@ public:
     void direction(const int* nodes, const double* weights, int count, std::vector<int>& index,
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override { return m_x.row(node).transpose(); }
+    Rows solution_rows() const override { return { m_x.data(), 3, 1 }; }
     Vec3 position(
         const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
