@@ -198,6 +198,11 @@ private:
         /// a full-space body's directions read only the contacts' nodes).
         std::vector<int> read_rows;
         std::vector<char> read_mark; ///< find_read_rows' scratch, per response row
+        /// turn_planes()' node positions (#nodes x 3, those of turn_nodes valid), the nodes it
+        /// takes this time, and per node the last time it took it (m_turn_stamp).
+        MatX3 node_positions;
+        std::vector<int> turn_nodes;
+        std::vector<long> node_stamp;
         /// A reduced body's 1 / A_ii per node, A its full-space system (empty: full space): the
         /// compliance floor of its self contacts (docs/method.md, "Self contacts of reduced
         /// bodies").
@@ -281,6 +286,7 @@ private:
     ContactScratch m_scratch;
     ContactSettings m_settings;
     int m_sweeps = 0;
+    long m_turn_stamp = 0; ///< turn_planes() calls so far
     bool m_at_iterate = false; ///< begin_step's
     Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
     std::vector<int> m_island_root; ///< mark_world_held's union-find, per body

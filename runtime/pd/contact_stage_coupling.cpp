@@ -171,15 +171,49 @@ void ContactStage::column_entries(
     }
 }
 
+// Neighbouring faces share their corners' nodes: each node's position is taken once (in
+// parallel over the nodes), then each face's corners from them.
 void ContactStage::turn_planes()
 {
+    ++m_turn_stamp;
+    for (BodyData& data : m_data)
+        data.turn_nodes.clear();
+    for (const Index a : m_rows) {
+        const Record& record = m_records[static_cast<std::size_t>(a)];
+        if (record.face < 0)
+            continue;
+        BodyData& data = m_data[static_cast<std::size_t>(record.face_body)];
+        if (data.node_positions.rows() == 0) {
+            const Index nodes
+                = m_solvers[static_cast<std::size_t>(record.face_body)]->model().num_nodes();
+            data.node_positions.resize(nodes, 3);
+            data.node_stamp.assign(static_cast<std::size_t>(nodes), 0);
+        }
+        for (int t = record.face; t < record.face + 3 * BodyContacts::face_corner_terms; ++t) {
+            const int node = m_face_node[static_cast<std::size_t>(t)];
+            if (m_face_weight[static_cast<std::size_t>(t)] != 0.0
+                && data.node_stamp[static_cast<std::size_t>(node)] != m_turn_stamp) {
+                data.node_stamp[static_cast<std::size_t>(node)] = m_turn_stamp;
+                data.turn_nodes.push_back(node);
+            }
+        }
+    }
+    for (std::size_t b = 0; b < m_data.size(); ++b) {
+        BodyData& data = m_data[b];
+        if (data.turn_nodes.empty())
+            continue;
+        const ContactResponse& step = m_solvers[b]->contact_response();
+        for_each_index(static_cast<Index>(data.turn_nodes.size()), [&](Index i) {
+            const int node = data.turn_nodes[static_cast<std::size_t>(i)];
+            data.node_positions.row(node) = step.node_position(node).transpose();
+        });
+    }
     for_each_index(static_cast<Index>(m_rows.size()), [&](Index row) {
         const Index a = m_rows[static_cast<std::size_t>(row)];
         const Record& record = m_records[static_cast<std::size_t>(a)];
         if (record.face < 0)
             return;
-        const ContactResponse& step
-            = m_solvers[static_cast<std::size_t>(record.face_body)]->contact_response();
+        const MatX3& positions = m_data[static_cast<std::size_t>(record.face_body)].node_positions;
         std::array<Vec3, 3> corner;
         int t = record.face;
         for (Vec3& point : corner) {
@@ -187,7 +221,8 @@ void ContactStage::turn_planes()
             for (int k = 0; k < BodyContacts::face_corner_terms; ++k, ++t) {
                 const double w = m_face_weight[static_cast<std::size_t>(t)];
                 if (w != 0.0)
-                    point += w * step.node_position(m_face_node[static_cast<std::size_t>(t)]);
+                    point
+                        += w * positions.row(m_face_node[static_cast<std::size_t>(t)]).transpose();
             }
         }
         const Vec3 normal = (corner[1] - corner[0]).cross(corner[2] - corner[0]);
