@@ -48,8 +48,6 @@ namespace {
 
 namespace {
 
-    /// f(i) for i in [0, n), in parallel when n is large enough to pay for it: each i writes
-    /// only its own results, so they do not depend on the thread count.
     /// f(begin, end) over [0, n) in blocks, in parallel when n is large enough to pay for it
     /// (as for_each_index).
     template <class F> void for_each_block(Index n, const F& f, Index grain = 64)
@@ -62,6 +60,8 @@ namespace {
             [&](const tbb::blocked_range<Index>& range) { f(range.begin(), range.end()); });
     }
 
+    /// f(i) for i in [0, n), in parallel when n is large enough to pay for it: each i writes
+    /// only its own results, so they do not depend on the thread count.
     template <class F> void for_each_index(Index n, const F& f, Index grain = 64)
     {
         if (n <= grain) {
@@ -87,8 +87,8 @@ namespace {
     };
 
     /// Each dot's sum, in its own order (the same as side_apply's, so the same bits), four
-    /// chains at a time: a dot is a chain of dependent multiply-adds, and four of them
-    /// interleaved keep the multiply-add units busy instead of waiting on each add.
+    /// chains at a time: a dot is a chain of dependent multiply-adds, and four interleaved let
+    /// their latencies overlap (the loads of the gathered entries still bound them).
     void sparse_dots(SparseDot* dots, int n)
     {
         int d = 0;
