@@ -47,9 +47,6 @@ public:
     virtual Rows solution_rows() const = 0;
     /// Node i's position in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
-    /// The point of a direction in the kept solution.
-    virtual Vec3 position(
-        const int* index, const double* value, int count, const Vec3& offset) const = 0;
 };
 
 } // namespace mat

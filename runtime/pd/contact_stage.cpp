@@ -399,13 +399,6 @@ double ContactStage::side_apply(const Side& side, const double* z) const
     return sum;
 }
 
-Vec3 ContactStage::side_position(const Side& side) const
-{
-    return m_solvers[static_cast<std::size_t>(side.body)]->contact_response().position(
-        m_dir_index.data() + side.dir_first, m_dir_value.data() + side.dir_first, side.dir_count,
-        side.offset);
-}
-
 void ContactStage::solve(bool last)
 {
     const Index m = static_cast<Index>(m_records.size());

@@ -244,7 +244,6 @@ private:
     /// several products at a time.
     void column_entries(
         const Index* contacts, const ColumnSides* const* columns, int count, double* out) const;
-    Vec3 side_position(const Side& side) const;
     /// After a solve before the step's last: each plane that follows the iterate, of a contact
     /// that has been in a working set, takes its face's outward normal in the kept solutions
     /// (the iterate's positions; docs/method.md, "Planes that follow the iterate").

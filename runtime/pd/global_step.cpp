@@ -166,15 +166,6 @@ Vec3 ReducedGlobalStep::node_position(int node) const
     return x.transpose();
 }
 
-Vec3 ReducedGlobalStep::position(
-    const int* index, const double* value, int count, const Vec3& offset) const
-{
-    Eigen::RowVector3d x = offset.transpose();
-    for (int i = 0; i < count; ++i)
-        x += value[i] * m_q.row(index[i]);
-    return x.transpose();
-}
-
 void ReducedGlobalStep::add_displacement(const Eigen::Ref<const MatX3>& displacement)
 {
     m_q += displacement;
@@ -229,15 +220,6 @@ void FullGlobalStep::direction(const int* nodes, const double* weights, int coun
         index.push_back(nodes[t]);
         value.push_back(weights[t]);
     }
-}
-
-Vec3 FullGlobalStep::position(
-    const int* index, const double* value, int count, const Vec3& offset) const
-{
-    Vec3 x = offset;
-    for (int i = 0; i < count; ++i)
-        x += value[i] * m_x.row(index[i]).transpose();
-    return x;
 }
 
 void FullGlobalStep::add_displacement(const Eigen::Ref<const MatX3>& displacement)

@@ -95,8 +95,6 @@ public:
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override;
     Rows solution_rows() const override { return { m_q.data(), 1, m_q.rows() }; }
-    Vec3 position(
-        const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_q.data(), m_q.size()); }
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
@@ -143,8 +141,6 @@ public:
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override { return m_x.row(node).transpose(); }
     Rows solution_rows() const override { return { m_x.data(), 3, 1 }; }
-    Vec3 position(
-        const int* index, const double* value, int count, const Vec3& offset) const override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_x.data(), m_x.size()); }
 
