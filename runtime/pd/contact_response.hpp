@@ -24,6 +24,16 @@ public:
     /// z_j, computed the first time it is asked for (and kept for later steps while a budget
     /// allows); the reference stays valid until the next begin_contacts().
     virtual Eigen::Ref<const VecX> node_response(int node) = 0;
+    /// Whether the contact stage should take W's entries in node space (from nodal_response()
+    /// read at a contact's nodes) rather than along its direction (direction(), response
+    /// space), and its points from displaced_positions(): where that is cheaper and the
+    /// node-space responses fit the response budget (docs/method.md, "W in node space").
+    virtual bool node_space() const = 0;
+    /// D's column j in node space: how far every node moves per unit force at node j (n
+    /// values, apply(i, z_j) for each node i; a full-space step's is z_j itself). Computed the
+    /// first time it is asked for and kept as node_response() is; the reference stays valid until
+    /// the next begin_contacts().
+    virtual Eigen::Ref<const VecX> nodal_response(int node) = 0;
     /// How far node i moves along a response: the row of node i applied to `response`.
     virtual double apply(int node, const Eigen::Ref<const VecX>& response) const = 0;
     /// Adds `displacement` (response_size() x 3, a sum of responses z f^T: the displacement
@@ -45,6 +55,11 @@ public:
         Index column_stride = 0;
     };
     virtual Rows solution_rows() const = 0;
+    /// Every node's position at the kept solution plus `displacement` (response_size() x 3),
+    /// into `out`  n x 3 (row-major, contiguous).
+    virtual void displaced_positions(
+        const Eigen::Ref<const MatX3>& displacement, Eigen::Ref<MatX3> out)
+        = 0;
     /// Node i's position in the kept solution.
     virtual Vec3 node_position(int node) const = 0;
 };

@@ -28,6 +28,7 @@ void ContactStage::init_body(int b, PdSolver& solver)
     data.num_planes = num_planes;
     data.previous_ground = MatX3::Zero(model.num_nodes() * num_planes, 3);
     data.previous_pair = MatX3::Zero(model.num_nodes(), 3);
+    data.nodal = solver.contact_response().node_space();
     if (num_planes > 0)
         data.boundary = boundary_nodes(model.tets(), model.num_nodes());
     if (solver.reduced_coordinates() != nullptr) {
@@ -62,6 +63,7 @@ void ContactStage::add_side(Record& record, int body, int first, int count)
     side.first = first;
     side.count = count;
     side.slot = -1;
+    side.nodal_slot = -1;
 }
 
 // Candidates: boundary nodes within the margin of a plane at the start of the step or at the
@@ -225,6 +227,8 @@ void ContactStage::begin_step(
     m_planes.clear();
     m_pairs.clear();
     m_settings = ContactSettings {};
+    for (BodyData& data : m_data)
+        data.summed = false;
     bool first_solver = true;
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         m_solvers[b] = bodies[b].solver;
@@ -329,6 +333,7 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
     // first asked for); the node responses z_j are the bodies' own, also computed when asked for.
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         m_data[b].pool_used = 0;
+        m_data[b].nodal_used = 0;
         if (bodies[b].solver != nullptr)
             bodies[b].solver->contact_response().begin_contacts();
     }
@@ -359,10 +364,13 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         for (int s = 0; s < record.num_sides; ++s) {
             Side& side = record.sides[static_cast<std::size_t>(s)];
             BodyData& body = m_data[static_cast<std::size_t>(side.body)];
+            side.dir_first = static_cast<int>(m_dir_index.size());
+            side.dir_count = 0;
+            if (body.nodal)
+                continue;
             const ContactResponse& step
                 = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
             body.slots.resize(static_cast<std::size_t>(step.response_size()), -1);
-            side.dir_first = static_cast<int>(m_dir_index.size());
             step.direction(m_term_node.data() + side.first, m_term_weight.data() + side.first,
                 side.count, m_dir_index, m_dir_value, side.offset, body.slots);
             side.dir_count = static_cast<int>(m_dir_index.size()) - side.dir_first;
@@ -390,6 +398,49 @@ Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale)
     return column;
 }
 
+const double* ContactStage::nodal(Side& side, double& scale)
+{
+    ContactResponse& global = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
+    if (side.slot < 0) {
+        scale = m_term_weight[static_cast<std::size_t>(side.first)];
+        return global.nodal_response(m_term_node[static_cast<std::size_t>(side.first)]).data();
+    }
+    scale = 1.0;
+    BodyData& data = m_data[static_cast<std::size_t>(side.body)];
+    if (side.nodal_slot < 0) {
+        side.nodal_slot = data.nodal_used++;
+        const Index n = m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes();
+        if (side.nodal_slot >= static_cast<int>(data.nodal_blocks.size()) * nodal_block)
+            data.nodal_blocks.emplace_back(n, nodal_block);
+        auto column
+            = data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)].col(
+                side.nodal_slot % nodal_block);
+        column.setZero();
+        for (int k = side.first; k < side.first + side.count; ++k)
+            column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
+                * global.nodal_response(m_term_node[static_cast<std::size_t>(k)]);
+    }
+    return data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)]
+        .col(side.nodal_slot % nodal_block)
+        .data();
+}
+
+double ContactStage::nodal_coupling(const Side& side_c, const Side& side_d)
+{
+    ContactResponse& global = m_solvers[static_cast<std::size_t>(side_d.body)]->contact_response();
+    double sum = 0.0;
+    for (int s = side_d.first; s < side_d.first + side_d.count; ++s) {
+        const double* moved
+            = global.nodal_response(m_term_node[static_cast<std::size_t>(s)]).data();
+        double inner = 0.0;
+        for (int t = side_c.first; t < side_c.first + side_c.count; ++t)
+            inner += m_term_weight[static_cast<std::size_t>(t)]
+                * moved[m_term_node[static_cast<std::size_t>(t)]];
+        sum += m_term_weight[static_cast<std::size_t>(s)] * inner;
+    }
+    return sum;
+}
+
 double ContactStage::side_apply(const Side& side, const double* z) const
 {
     double sum = 0.0;
@@ -414,7 +465,13 @@ void ContactStage::solve(bool last)
     const ContactSolveResult result = solve_plane_contacts(
         *this, m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;
+    for (BodyData& data : m_data)
+        data.summed = false;
     sum_responses(m_forces, true);
+    // A nodal body's displace() takes all rows, as here: the next solve starts from these
+    // forces, so its first displace() reads this sum (the same bits).
+    for (BodyData& data : m_data)
+        data.summed = data.nodal;
     for (std::size_t b = 0; b < m_data.size(); ++b)
         if (m_solvers[b] != nullptr)
             m_solvers[b]->contact_response().add_displacement(m_data[b].displacement);

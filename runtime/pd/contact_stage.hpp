@@ -22,7 +22,9 @@
 // its ContactCoupling: W between the contacts that have been in a working set and those that have
 // pushed, and the other positions through each body's summed response (docs/method.md, "W is
 // never formed whole"). A contact with several terms on a body keeps the
-// body's response to it, sum_t w_t z_t (a vector of the body's response size).
+// body's response to it, sum_t w_t z_t (a vector of the body's response size). On a reduced body
+// whose responses say so, W's entries and the points are taken in node space instead
+// (docs/method.md, "W in node space").
 
 #include <array>
 #include <vector>
@@ -157,6 +159,9 @@ private:
         int first = 0; ///< into m_term_node / m_term_weight
         int count = 0;
         int slot = -1; ///< its response's column in the body's pool; -1: one term (node response)
+        /// Its node-space response's column in the body's nodal pool (-1: not formed yet; see
+        /// BodyData::nodal).
+        int nodal_slot = -1;
         int dir_first
             = 0; ///< its direction (ContactResponse::direction) in m_dir_index / m_dir_value
         int dir_count = 0;
@@ -187,7 +192,23 @@ private:
         int pool_used = 0;
         std::vector<char> pool_ready; ///< per pool column, computed this step
         std::vector<int> slots; ///< ContactResponse::direction's scratch
+        /// W's entries on this body are taken in node space: a column's response as node
+        /// displacements (ContactResponse::nodal_response), read at a row's terms (4 to 12
+        /// nodes) instead of along its direction (the rows of q its nodes' basis rows touch,
+        /// 40 to 100 on the coarse creature). Where its response says so
+        /// (ContactResponse::node_space; docs/method.md, "W in node space").
+        bool nodal = false;
+        /// The nodal pool: per side asked for, sum_t w_t D_b e_t (n values), in blocks of
+        /// nodal_block columns that never move.
+        std::vector<MatX> nodal_blocks;
+        int nodal_used = 0;
+        /// displace()'s node positions of a nodal body (#nodes x 3): its sides' points are taken
+        /// from them, and its sides have no direction.
+        MatX3 displaced;
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
+        /// The displacement is that of the current forces over all rows (a nodal body's,
+        /// from the end of the last solve): the next displace() need not sum it again.
+        bool summed = false;
         /// sum_responses' scratch: its pushing sides' responses and forces.
         struct Push {
             const double* response = nullptr;
@@ -231,8 +252,17 @@ private:
     Eigen::Ref<const VecX> response(const Side& side, double& scale);
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const double* response) const;
+    /// On a nodal body (BodyData::nodal): the side's node-space response (its nodal pool
+    /// column, or its single term's nodal response) and the scale of its single term. Formed
+    /// when first asked for in the step.
+    const double* nodal(Side& side, double& scale);
+    /// On a nodal body: J_c D_b J_d^T for two sides of it, from the nodal responses of d's
+    /// terms (no pool column formed).
+    double nodal_coupling(const Side& side_c, const Side& side_d);
+    static constexpr Index nodal_block = 64;
     /// A column's contact's responses, one per side (kept for the step: a response never moves
-    /// once computed), so that the rows covered later read them in parallel.
+    /// once computed), so that the rows covered later read them in parallel. On a nodal body
+    /// the response is the side's nodal() one.
     struct ColumnSides {
         int count = 0;
         std::array<int, 2> body {};
@@ -259,7 +289,8 @@ private:
     void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
         const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;
     /// Each stepped body's displacement by `forces`: sum over its sides of z f^T (`all_rows`
-    /// false: only the rows its directions read).
+    /// false: only the rows its directions read), but for the bodies whose displacement is
+    /// summed already (BodyData::summed).
     void sum_responses(const Eigen::Ref<const MatX3>& forces, bool all_rows);
 
     std::vector<BodyData> m_data;

@@ -24,6 +24,10 @@ double ContactStage::coupling_between(Index c, Index d)
             const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
             if (side_c.body != side_d.body)
                 continue;
+            if (m_data[static_cast<std::size_t>(side_c.body)].nodal) {
+                sum += nodal_coupling(side_c, side_d);
+                continue;
+            }
             double scale = 1.0;
             const auto z = response(side_d, scale);
             sum += scale * side_apply(side_c, z.data());
@@ -150,9 +154,15 @@ void ContactStage::column_entries(
                     if (side_c.body != column.body[static_cast<std::size_t>(sd)])
                         continue;
                     SparseDot& dot = dots[static_cast<std::size_t>(n)];
-                    dot.index = m_dir_index.data() + side_c.dir_first;
-                    dot.value = m_dir_value.data() + side_c.dir_first;
-                    dot.count = side_c.dir_count;
+                    if (m_data[static_cast<std::size_t>(side_c.body)].nodal) {
+                        dot.index = m_term_node.data() + side_c.first;
+                        dot.value = m_term_weight.data() + side_c.first;
+                        dot.count = side_c.count;
+                    } else {
+                        dot.index = m_dir_index.data() + side_c.dir_first;
+                        dot.value = m_dir_value.data() + side_c.dir_first;
+                        dot.count = side_c.dir_count;
+                    }
                     dot.z = column.response[static_cast<std::size_t>(sd)];
                     scales[static_cast<std::size_t>(n++)]
                         = column.scale[static_cast<std::size_t>(sd)];
@@ -275,12 +285,15 @@ const double* ContactStage::column(Index d)
         // d's responses (computed here if they are not yet: not in parallel), kept for the rows
         // covered later.
         ColumnSides sides;
-        const Record& record_d = m_records[static_cast<std::size_t>(d)];
+        Record& record_d = m_records[static_cast<std::size_t>(d)];
         sides.count = record_d.num_sides;
         for (int sd = 0; sd < record_d.num_sides; ++sd) {
-            const Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
+            Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
             double scale = 1.0;
-            sides.response[static_cast<std::size_t>(sd)] = response(side_d, scale).data();
+            sides.response[static_cast<std::size_t>(sd)]
+                = m_data[static_cast<std::size_t>(side_d.body)].nodal
+                ? nodal(side_d, scale)
+                : response(side_d, scale).data();
             sides.scale[static_cast<std::size_t>(sd)] = scale;
             sides.body[static_cast<std::size_t>(sd)] = side_d.body;
         }
@@ -315,8 +328,8 @@ void ContactStage::find_read_rows()
                 mark[static_cast<std::size_t>(m_dir_index[static_cast<std::size_t>(i)])] = 1;
         }
     for (std::size_t b = 0; b < m_data.size(); ++b) {
-        if (m_solvers[b] == nullptr)
-            continue;
+        if (m_solvers[b] == nullptr || m_data[b].nodal)
+            continue; // a nodal body's points are taken from all of its nodes
         BodyData& data = m_data[b];
         const Index size = static_cast<Index>(data.read_mark.size());
         Index count = 0;
@@ -334,7 +347,7 @@ void ContactStage::find_read_rows()
 void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all_rows)
 {
     for (std::size_t b = 0; b < m_data.size(); ++b) {
-        if (m_solvers[b] == nullptr)
+        if (m_solvers[b] == nullptr || m_data[b].summed)
             continue;
         BodyData& data = m_data[b];
         const Index size = m_solvers[b]->contact_response().response_size();
@@ -358,6 +371,8 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
         const Record& record = m_records[static_cast<std::size_t>(a)];
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
+            if (m_data[static_cast<std::size_t>(side.body)].summed)
+                continue;
             double scale = 1.0;
             const double* z = response(side, scale).data();
             m_data[static_cast<std::size_t>(side.body)].pushes.push_back(
@@ -368,7 +383,7 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
         static_cast<Index>(m_data.size()),
         [&](Index b) {
             BodyData& data = m_data[static_cast<std::size_t>(b)];
-            if (m_solvers[static_cast<std::size_t>(b)] == nullptr)
+            if (m_solvers[static_cast<std::size_t>(b)] == nullptr || data.summed)
                 return;
             const Index size = data.displacement.rows();
             for (const BodyData::Push& push : data.pushes) {
@@ -392,11 +407,21 @@ void ContactStage::displace(const Eigen::Ref<const MatX3>& /*free*/,
     Eigen::Ref<MatX3> positions)
 {
     sum_responses(forces, false);
-    // Each body's displaced solution, in place of its displacement, over the rows read.
+    for (BodyData& data : m_data)
+        data.summed = false; // the sweeps change the forces
+    // Each body's displaced solution, in place of its displacement, over the rows read; a
+    // nodal body's node positions there.
     for (std::size_t b = 0; b < m_data.size(); ++b) {
         if (m_solvers[b] == nullptr)
             continue;
         BodyData& data = m_data[b];
+        if (data.nodal) {
+            const Index nodes = m_solvers[b]->model().num_nodes();
+            if (data.displaced.rows() != nodes)
+                data.displaced.resize(nodes, 3);
+            m_solvers[b]->contact_response().displaced_positions(data.displacement, data.displaced);
+            continue;
+        }
         const ContactResponse::Rows u = m_solvers[b]->contact_response().solution_rows();
         const auto add_row = [&](Index r) {
             for (int j = 0; j < 3; ++j)
@@ -417,7 +442,14 @@ void ContactStage::displace(const Eigen::Ref<const MatX3>& /*free*/,
         Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
         for (int s = 0; s < record.num_sides; ++s) {
             const Side& side = record.sides[static_cast<std::size_t>(s)];
-            const MatX3& displaced = m_data[static_cast<std::size_t>(side.body)].displacement;
+            const BodyData& data = m_data[static_cast<std::size_t>(side.body)];
+            if (data.nodal) {
+                for (int k = side.first; k < side.first + side.count; ++k)
+                    x += m_term_weight[static_cast<std::size_t>(k)]
+                        * data.displaced.row(m_term_node[static_cast<std::size_t>(k)]);
+                continue;
+            }
+            const MatX3& displaced = data.displacement;
             Eigen::RowVector3d point = side.offset.transpose();
             for (int i = side.dir_first; i < side.dir_first + side.dir_count; ++i)
                 point += m_dir_value[static_cast<std::size_t>(i)]

@@ -19,6 +19,7 @@ ReducedGlobalStep::ReducedGlobalStep(const Model& model)
     , m_q(model.num_columns(), 3)
     , m_q_rows(model.num_columns(), 3)
     , m_cache(model.num_nodes(), model.num_columns())
+    , m_nodal_cache(model.num_nodes(), model.num_nodes())
 {
     // A X = L_w X + M X / h^2 + P X.
     const double inv_h2 = 1.0 / (model.time_step() * model.time_step());
@@ -31,6 +32,12 @@ ReducedGlobalStep::ReducedGlobalStep(const Model& model)
     const Index k = model.num_columns();
     if (k > 0 && k <= dense_inverse_limit)
         m_inverse = model.reduced_system().solve(MatX::Identity(k, k));
+    const auto bytes = [](Index rows, Index cols) {
+        return static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * sizeof(double);
+    };
+    const Index n = model.num_nodes();
+    m_node_space = m_inverse.size() > 0 && bytes(n, n) <= ResponseCache::default_budget
+        && bytes(n, k) <= ResponseCache::default_budget;
 }
 
 void ReducedGlobalStep::solve_rows()
@@ -117,13 +124,43 @@ Eigen::Ref<const VecX> ReducedGlobalStep::node_response(int node)
 {
     bool fresh = false;
     auto z = m_cache.column(node, fresh);
-    if (fresh) {
-        z.setZero();
-        for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
-            z(it.index()) = it.value();
-        m_model.reduced_system().solveInPlace(z);
+    if (!fresh)
+        return z;
+    if (m_node_space) {
+        // S^-1 b_j^T is row j of B S^-1 (S symmetric).
+        z = basis_inverse().row(node).transpose();
+        return z;
     }
+    z.setZero();
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+        z(it.index()) = it.value();
+    m_model.reduced_system().solveInPlace(z);
     return z;
+}
+
+const MatX& ReducedGlobalStep::basis_inverse()
+{
+    if (m_basis_inverse.size() == 0)
+        m_basis_inverse.noalias() = m_model.basis() * m_inverse;
+    return m_basis_inverse;
+}
+
+Eigen::Ref<const VecX> ReducedGlobalStep::nodal_response(int node)
+{
+    bool fresh = false;
+    auto column = m_nodal_cache.column(node, fresh);
+    if (!fresh)
+        return column;
+    if (!m_node_space) {
+        column.noalias() = m_model.basis() * node_response(node);
+        return column;
+    }
+    // B S^-1 b_j^T as a sum of b_j's entries times columns of B S^-1.
+    const MatX& basis_inverse = this->basis_inverse();
+    column.setZero();
+    for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
+        column.noalias() += it.value() * basis_inverse.col(it.index());
+    return column;
 }
 
 double ReducedGlobalStep::apply(int node, const Eigen::Ref<const VecX>& response) const
@@ -169,6 +206,15 @@ Vec3 ReducedGlobalStep::node_position(int node) const
 void ReducedGlobalStep::add_displacement(const Eigen::Ref<const MatX3>& displacement)
 {
     m_q += displacement;
+}
+
+void ReducedGlobalStep::displaced_positions(
+    const Eigen::Ref<const MatX3>& displacement, Eigen::Ref<MatX3> out)
+{
+    MAT_CHECK(out.outerStride() == 3 && out.rows() == m_model.num_nodes(),
+        "reduced global step: displaced positions must be n contiguous rows");
+    m_displaced_rows = m_q + displacement;
+    m_products.reconstruct(m_displaced_rows.data(), out.data());
 }
 
 void ReducedGlobalStep::positions(Eigen::Ref<MatX3> out, SolverTimings& timings)

@@ -86,8 +86,17 @@ public:
     void solve(const LocalSums& rhs, SolverTimings& timings) override;
     ContactResponse& contact_response() override { return *this; }
     Index response_size() const override { return m_q.rows(); }
-    void begin_contacts() override { m_cache.begin_step(); }
+    void begin_contacts() override
+    {
+        m_cache.begin_step();
+        m_nodal_cache.begin_step();
+    }
     Eigen::Ref<const VecX> node_response(int node) override;
+    /// B z_j, kept in its own budget.
+    Eigen::Ref<const VecX> nodal_response(int node) override;
+    /// With S^-1 kept, when B S^-1 (n x k) and the n x n node-space responses fit the response
+    /// budget: then node_response() and nodal_response() read B S^-1.
+    bool node_space() const override { return m_node_space; }
     double apply(int node, const Eigen::Ref<const VecX>& response) const override;
     void add_displacement(const Eigen::Ref<const MatX3>& displacement) override;
     const MatX* reduced_coordinates() const override { return &m_q; }
@@ -95,6 +104,8 @@ public:
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override;
     Rows solution_rows() const override { return { m_q.data(), 1, m_q.rows() }; }
+    void displaced_positions(
+        const Eigen::Ref<const MatX3>& displacement, Eigen::Ref<MatX3> out) override;
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_q.data(), m_q.size()); }
     /// Solves S q = `rhs`  k x 3 (a right-hand side already reduced, B^T b) and keeps q.
@@ -110,13 +121,20 @@ private:
     MatX3 m_rest_system; ///< A X  n x 3 (constant)
     MatX m_q; ///< k x 3
     MatX3 m_q_rows; ///< k x 3 row-major copy of m_q for the reconstruction
+    MatX3 m_displaced_rows; ///< k x 3: displaced_positions()' q
     ResponseCache m_cache; ///< S^-1 b_j^T per node j asked for
+    ResponseCache m_nodal_cache; ///< B S^-1 b_j^T per node j asked for (nodal_response)
     /// S^-1 when k <= dense_inverse_limit (else empty: the LLT's solves).
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m_inverse;
     MatX m_q_columns; ///< k x 3: the right-hand sides, column-major
+    MatX m_basis_inverse; ///< B S^-1  n x k (node_space()), formed when first asked for
+    bool m_node_space = false;
 
     /// m_q = S^-1 m_q_rows.
     void solve_rows();
+    /// B S^-1 (node_space() only): its row j is node j's response, and D's node-space column
+    /// j its columns weighted by b_j.
+    const MatX& basis_inverse();
 };
 
 /// Largest reduced system whose inverse ReducedGlobalStep keeps (1500 columns: 18 MB).
@@ -132,6 +150,9 @@ public:
     Index response_size() const override { return m_x.rows(); }
     void begin_contacts() override { m_cache.begin_step(); }
     Eigen::Ref<const VecX> node_response(int node) override;
+    Eigen::Ref<const VecX> nodal_response(int node) override { return node_response(node); }
+    /// Its responses are in node space already: the directions are the nodes themselves.
+    bool node_space() const override { return false; }
     double apply(int node, const Eigen::Ref<const VecX>& response) const override
     {
         return response(node);
@@ -141,6 +162,11 @@ public:
         std::vector<double>& value, Vec3& offset, std::vector<int>& slots) const override;
     Vec3 node_position(int node) const override { return m_x.row(node).transpose(); }
     Rows solution_rows() const override { return { m_x.data(), 3, 1 }; }
+    void displaced_positions(
+        const Eigen::Ref<const MatX3>& displacement, Eigen::Ref<MatX3> out) override
+    {
+        out = m_x + displacement;
+    }
     void positions(Eigen::Ref<MatX3> out, SolverTimings& timings) override;
     Eigen::Map<VecX> solution() override { return Eigen::Map<VecX>(m_x.data(), m_x.size()); }
 

@@ -419,6 +419,58 @@ namespace {
         EXPECT_THROW(step_with_contacts(node_solver, stage, b, next, bad), Error);
     }
 
+    TEST(PlaneContact, NodeSpaceResponsesMatchTheReducedSolves)
+    {
+        // A reduced body's node-space responses (read from B S^-1) against the triangular solves
+        // of its reduced system: z_j = S^-1 b_j^T, node i's motion b_i z_j, and the node
+        // positions at a displaced solution. A full-space body's are its responses themselves.
+        const BakeData& bake = test::shipped_cube_bake();
+        const Model model(bake, Material {}, ModelOptions {});
+        const SparseRowMatrix& basis = model.basis();
+        PdSolver solver = semi_reduced_solver(model);
+        ContactResponse& response = solver.contact_response();
+        ASSERT_TRUE(response.node_space());
+        response.begin_contacts();
+        const Index n = model.num_nodes(), k = model.num_columns();
+        double scale = 0.0; // the largest |z_j| entry, for the tolerances
+        for (Index j = 0; j < n; ++j) {
+            VecX expected = VecX::Zero(k);
+            for (SparseRowMatrix::InnerIterator it(basis, j); it; ++it)
+                expected(it.index()) = it.value();
+            model.reduced_system().solveInPlace(expected);
+            scale = std::max(scale, expected.cwiseAbs().maxCoeff());
+            const VecX z = response.node_response(static_cast<int>(j));
+            EXPECT_LT((z - expected).cwiseAbs().maxCoeff(), 1e-9 * scale) << "node " << j;
+            const VecX moved = response.nodal_response(static_cast<int>(j));
+            ASSERT_EQ(moved.size(), n);
+            for (Index i = 0; i < n; ++i) {
+                ASSERT_NEAR(moved(i), response.apply(static_cast<int>(i), expected), 1e-9 * scale)
+                    << "node " << i << " by node " << j;
+            }
+            // D is symmetric: node j moves node i as node i moves node j.
+            if (j > 0) {
+                EXPECT_NEAR(moved(0), response.nodal_response(0)(j), 1e-9 * scale);
+            }
+        }
+        MatX3 displacement(k, 3);
+        for (Index r = 0; r < k; ++r)
+            displacement.row(r) = Eigen::RowVector3d(0.01 * r, -0.02, 0.005 * (r % 3));
+        MatX3 displaced(n, 3);
+        response.displaced_positions(displacement, displaced);
+        for (Index i = 0; i < n; ++i) {
+            Vec3 expected = response.node_position(static_cast<int>(i));
+            for (int c = 0; c < 3; ++c)
+                expected(c) += response.apply(static_cast<int>(i), displacement.col(c));
+            EXPECT_LT((displaced.row(i).transpose() - expected).norm(), 1e-12) << "node " << i;
+        }
+        PdSolver full = full_solver(model);
+        ContactResponse& full_response = full.contact_response();
+        EXPECT_FALSE(full_response.node_space());
+        full_response.begin_contacts();
+        const VecX z = full_response.node_response(3);
+        EXPECT_EQ((full_response.nodal_response(3) - z).cwiseAbs().maxCoeff(), 0.0);
+    }
+
     TEST(PlaneContact, SelfContactsOfReducedBodiesAreNeverStifferThanTheFullDiagonal)
     {
         // A self contact pulls two nodes on opposite sides of the baked cube 1 cm towards each
