@@ -116,8 +116,8 @@ namespace {
             // Normal: the force that closes the gap (or none), Signorini.
             const double gap = n.dot(x - plane.point) - eps * plane.preload;
             // No force and a gap that is not negative: no force again (the friction disk is a
-            // point), so nothing changes. Taken before the tangent's divisions and roots: most
-            // of a large working set is such contacts (at an impact, nine in ten).
+            // point), so nothing changes. Taken before the tangent's divisions and roots: in a
+            // large working set many are such contacts (docs/method.md, "W in node space").
             if (gap >= 0.0 && f.x() == 0.0 && f.y() == 0.0 && f.z() == 0.0)
                 return 0.0;
             const double f_n = n.dot(f);
