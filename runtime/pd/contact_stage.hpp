@@ -209,6 +209,7 @@ private:
         /// The displacement is that of the current forces over all rows (a nodal body's,
         /// from the end of the last solve): the next displace() need not sum it again.
         bool summed = false;
+        MatX summing; ///< sum_responses' column-major sum over all rows (response size x 3)
         /// sum_responses' scratch: its pushing sides' responses and forces.
         struct Push {
             const double* response = nullptr;

@@ -386,13 +386,20 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
             if (m_solvers[static_cast<std::size_t>(b)] == nullptr || data.summed)
                 return;
             const Index size = data.displacement.rows();
+            if (all_rows || data.read_rows.empty()) {
+                // Column by column (three contiguous updates per push), then into the rows.
+                data.summing.setZero(size, 3);
+                for (const BodyData::Push& push : data.pushes) {
+                    const Eigen::Map<const VecX> z(push.response, size);
+                    data.summing.noalias() += z * push.force;
+                }
+                data.displacement = data.summing;
+                return;
+            }
             for (const BodyData::Push& push : data.pushes) {
                 const Eigen::Map<const VecX> z(push.response, size);
-                if (all_rows || data.read_rows.empty())
-                    data.displacement.noalias() += z * push.force;
-                else
-                    for (const int r : data.read_rows)
-                        data.displacement.row(r) += z(r) * push.force;
+                for (const int r : data.read_rows)
+                    data.displacement.row(r) += z(r) * push.force;
             }
         },
         1);
