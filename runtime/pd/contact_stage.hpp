@@ -193,7 +193,7 @@ private:
         std::vector<char> pool_ready; ///< per pool column, computed this step
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         /// W's entries on this body are taken in node space: a column's response as node
-        /// displacements (ContactResponse::nodal_response), read at a row's terms (4 to 12
+        /// displacements (ContactResponse::nodal_response), read at a row's terms (1 to 12
         /// nodes) instead of along its direction (the rows of q its nodes' basis rows touch,
         /// 40 to 100 on the coarse creature). Where its response says so
         /// (ContactResponse::node_space; docs/method.md, "W in node space").
