@@ -407,22 +407,22 @@ const double* ContactStage::nodal(Side& side, double& scale)
     }
     scale = 1.0;
     BodyData& data = m_data[static_cast<std::size_t>(side.body)];
-    if (side.nodal_slot < 0) {
+    const bool fresh = side.nodal_slot < 0;
+    if (fresh) {
         side.nodal_slot = data.nodal_used++;
-        const Index n = m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes();
         if (side.nodal_slot >= static_cast<int>(data.nodal_blocks.size()) * nodal_block)
-            data.nodal_blocks.emplace_back(n, nodal_block);
-        auto column
-            = data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)].col(
-                side.nodal_slot % nodal_block);
+            data.nodal_blocks.emplace_back(
+                m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes(), nodal_block);
+    }
+    auto column = data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)].col(
+        side.nodal_slot % nodal_block);
+    if (fresh) {
         column.setZero();
         for (int k = side.first; k < side.first + side.count; ++k)
             column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
                 * global.nodal_response(m_term_node[static_cast<std::size_t>(k)]);
     }
-    return data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)]
-        .col(side.nodal_slot % nodal_block)
-        .data();
+    return column.data();
 }
 
 double ContactStage::nodal_coupling(const Side& side_c, const Side& side_d)

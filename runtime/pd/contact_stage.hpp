@@ -195,7 +195,7 @@ private:
         /// W's entries on this body are taken in node space: a column's response as node
         /// displacements (ContactResponse::nodal_response), read at a row's terms (1 to 12
         /// nodes) instead of along its direction (the rows of q its nodes' basis rows touch,
-        /// 40 to 100 on the coarse creature). Where its response says so
+        /// 4 to 64 on the coarse creature). Where its response says so
         /// (ContactResponse::node_space; docs/method.md, "W in node space").
         bool nodal = false;
         /// The nodal pool: per side asked for, sum_t w_t D_b e_t (n values), in blocks of
