@@ -329,8 +329,8 @@ void ContactStage::set_preloads(Index first_body_contact)
 
 void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies)
 {
-    // A pool slot for each side with several terms (its response sum_t w_t z_t, computed when
-    // first asked for); the node responses z_j are the bodies' own, also computed when asked for.
+    // A side with several terms gets a pool column for its response sum_t w_t z_t when it is
+    // first asked for; the node responses z_j are the bodies' own, also computed when asked for.
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         m_data[b].pool_used = 0;
         m_data[b].nodal_used = 0;
@@ -343,8 +343,7 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         for (int s = 0; s < record.num_sides; ++s) {
             Side& side = record.sides[static_cast<std::size_t>(s)];
             terms[static_cast<std::size_t>(side.body)] += side.count;
-            if (side.count > 1)
-                side.slot = m_data[static_cast<std::size_t>(side.body)].pool_used++;
+            side.slot = -1;
         }
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         if (bodies[b].solver == nullptr)
@@ -353,9 +352,8 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
         // A body with contact candidates runs its iterations plain (docs/method.md).
         bodies[b].solver->set_contact_nodes(terms[b]);
         const Index size = bodies[b].solver->contact_response().response_size();
-        if (data.pool_used > data.responses.cols() || data.responses.rows() != size)
-            data.responses.resize(size, std::max<Index>(data.pool_used, 2 * data.responses.cols()));
-        data.pool_ready.assign(static_cast<std::size_t>(data.pool_used), 0);
+        if (!data.pool_blocks.empty() && data.pool_blocks.front().rows() != size)
+            data.pool_blocks.clear();
     }
     // Each side's direction.
     m_dir_index.clear();
@@ -378,30 +376,36 @@ void ContactStage::prepare_responses(const std::vector<ContactBodyState>& bodies
     find_read_rows();
 }
 
-Eigen::Ref<const VecX> ContactStage::response(const Side& side, double& scale)
+const double* ContactStage::response(Side& side, double& scale)
 {
     ContactResponse& global = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
-    if (side.slot < 0) {
+    if (side.count == 1) {
         scale = m_term_weight[static_cast<std::size_t>(side.first)];
-        return global.node_response(m_term_node[static_cast<std::size_t>(side.first)]);
+        return global.node_response(m_term_node[static_cast<std::size_t>(side.first)]).data();
     }
     scale = 1.0;
     BodyData& data = m_data[static_cast<std::size_t>(side.body)];
-    auto column = data.responses.col(side.slot);
-    if (!data.pool_ready[static_cast<std::size_t>(side.slot)]) {
+    const bool fresh = side.slot < 0;
+    if (fresh) {
+        side.slot = data.pool_used++;
+        if (side.slot >= static_cast<int>(data.pool_blocks.size()) * pool_block)
+            data.pool_blocks.emplace_back(global.response_size(), pool_block);
+    }
+    auto column = data.pool_blocks[static_cast<std::size_t>(side.slot / pool_block)].col(
+        side.slot % pool_block);
+    if (fresh) {
         column.setZero();
         for (int k = side.first; k < side.first + side.count; ++k)
             column.noalias() += m_term_weight[static_cast<std::size_t>(k)]
                 * global.node_response(m_term_node[static_cast<std::size_t>(k)]);
-        data.pool_ready[static_cast<std::size_t>(side.slot)] = 1;
     }
-    return column;
+    return column.data();
 }
 
 const double* ContactStage::nodal(Side& side, double& scale)
 {
     ContactResponse& global = m_solvers[static_cast<std::size_t>(side.body)]->contact_response();
-    if (side.slot < 0) {
+    if (side.count == 1) {
         scale = m_term_weight[static_cast<std::size_t>(side.first)];
         return global.nodal_response(m_term_node[static_cast<std::size_t>(side.first)]).data();
     }

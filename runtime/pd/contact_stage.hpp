@@ -158,7 +158,9 @@ private:
         int body = -1;
         int first = 0; ///< into m_term_node / m_term_weight
         int count = 0;
-        int slot = -1; ///< its response's column in the body's pool; -1: one term (node response)
+        /// Its response's column in the body's pool (-1: not formed yet this step; a side of
+        /// one term has none, its response is its node's).
+        int slot = -1;
         /// Its node-space response's column in the body's nodal pool (-1: not formed yet; see
         /// BodyData::nodal).
         int nodal_slot = -1;
@@ -188,9 +190,11 @@ private:
         MatX3 previous_ground; ///< #nodes * #planes x 3: last step's ground forces
         MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)
         std::vector<std::array<int, 2>> used; ///< (node, plane or -1) warm starts read
-        MatX responses; ///< pool of multi-term responses, one column each
+        /// The pool of multi-term sides' responses, one column each, formed when a side's is
+        /// first asked for in the step (most sides never push), in blocks of pool_block columns
+        /// that never move.
+        std::vector<MatX> pool_blocks;
         int pool_used = 0;
-        std::vector<char> pool_ready; ///< per pool column, computed this step
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         /// W's entries on this body are taken in node space: a column's response as node
         /// displacements (ContactResponse::nodal_response), read at a row's terms (1 to 12
@@ -250,7 +254,8 @@ private:
     void find_read_rows();
     /// The side's response (pool column or node response) and the scale of its single term.
     /// Computed when first asked for in the step.
-    Eigen::Ref<const VecX> response(const Side& side, double& scale);
+    const double* response(Side& side, double& scale);
+    static constexpr Index pool_block = 64;
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const double* response) const;
     /// On a nodal body (BodyData::nodal): the side's node-space response (its nodal pool

@@ -16,10 +16,10 @@ namespace mat {
 double ContactStage::coupling_between(Index c, Index d)
 {
     const Record& record_c = m_records[static_cast<std::size_t>(c)];
-    const Record& record_d = m_records[static_cast<std::size_t>(d)];
+    Record& record_d = m_records[static_cast<std::size_t>(d)];
     double sum = 0.0;
     for (int sd = 0; sd < record_d.num_sides; ++sd) {
-        const Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
+        Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
         for (int sc = 0; sc < record_c.num_sides; ++sc) {
             const Side& side_c = record_c.sides[static_cast<std::size_t>(sc)];
             if (side_c.body != side_d.body)
@@ -29,8 +29,8 @@ double ContactStage::coupling_between(Index c, Index d)
                 continue;
             }
             double scale = 1.0;
-            const auto z = response(side_d, scale);
-            sum += scale * side_apply(side_c, z.data());
+            const double* z = response(side_d, scale);
+            sum += scale * side_apply(side_c, z);
         }
     }
     return sum;
@@ -291,9 +291,8 @@ const double* ContactStage::column(Index d)
             Side& side_d = record_d.sides[static_cast<std::size_t>(sd)];
             double scale = 1.0;
             sides.response[static_cast<std::size_t>(sd)]
-                = m_data[static_cast<std::size_t>(side_d.body)].nodal
-                ? nodal(side_d, scale)
-                : response(side_d, scale).data();
+                = m_data[static_cast<std::size_t>(side_d.body)].nodal ? nodal(side_d, scale)
+                                                                      : response(side_d, scale);
             sides.scale[static_cast<std::size_t>(sd)] = scale;
             sides.body[static_cast<std::size_t>(sd)] = side_d.body;
         }
@@ -368,13 +367,13 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
     for (Index a = 0; a < m; ++a) {
         if (!(forces.row(a).squaredNorm() > 0.0))
             continue;
-        const Record& record = m_records[static_cast<std::size_t>(a)];
+        Record& record = m_records[static_cast<std::size_t>(a)];
         for (int s = 0; s < record.num_sides; ++s) {
-            const Side& side = record.sides[static_cast<std::size_t>(s)];
+            Side& side = record.sides[static_cast<std::size_t>(s)];
             if (m_data[static_cast<std::size_t>(side.body)].summed)
                 continue;
             double scale = 1.0;
-            const double* z = response(side, scale).data();
+            const double* z = response(side, scale);
             m_data[static_cast<std::size_t>(side.body)].pushes.push_back(
                 { z, scale * forces.row(a) });
         }
