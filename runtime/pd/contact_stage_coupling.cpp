@@ -52,11 +52,16 @@ namespace {
 
 namespace {
 
-    /// f(begin, end) over [0, n) in blocks, in parallel when n is large enough to pay for it
-    /// (as for_each_index).
-    template <class F> void for_each_block(Index n, const F& f, Index grain = 64)
+    /// The smallest share of a parallel loop, in W entries or contact points (about 20 to
+    /// 60 ns each): a parallel loop costs a wake-up of the other threads, which on a virtual
+    /// machine can cost more than a few dozen such items (docs/method.md, "W in node space").
+    constexpr Index entry_grain = 256;
+
+    /// f(begin, end) over [0, n) in blocks of at least `grain`, in parallel when there are two
+    /// of them or more (as for_each_index).
+    template <class F> void for_each_block(Index n, const F& f, Index grain = entry_grain)
     {
-        if (n <= grain) {
+        if (n < 2 * grain) {
             f(Index { 0 }, n);
             return;
         }
@@ -64,11 +69,11 @@ namespace {
             [&](const tbb::blocked_range<Index>& range) { f(range.begin(), range.end()); });
     }
 
-    /// f(i) for i in [0, n), in parallel when n is large enough to pay for it: each i writes
-    /// only its own results, so they do not depend on the thread count.
-    template <class F> void for_each_index(Index n, const F& f, Index grain = 64)
+    /// f(i) for i in [0, n), in parallel when there are two blocks of `grain` or more: each i
+    /// writes only its own results, so they do not depend on the thread count.
+    template <class F> void for_each_index(Index n, const F& f, Index grain = entry_grain)
     {
-        if (n <= grain) {
+        if (n < 2 * grain) {
             for (Index i = 0; i < n; ++i)
                 f(i);
             return;
@@ -378,8 +383,16 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
                 { z, scale * forces.row(a) });
         }
     }
+    // In parallel over the bodies where the sums are worth a wake-up of the other threads
+    // (for_each_index; a push costs 3 x the response size multiply-adds).
+    Index work = 0;
+    for (std::size_t b = 0; b < m_data.size(); ++b)
+        if (m_solvers[b] != nullptr)
+            work += static_cast<Index>(m_data[b].pushes.size())
+                * m_solvers[b]->contact_response().response_size();
+    const Index bodies = static_cast<Index>(m_data.size());
     for_each_index(
-        static_cast<Index>(m_data.size()),
+        bodies,
         [&](Index b) {
             BodyData& data = m_data[static_cast<std::size_t>(b)];
             if (m_solvers[static_cast<std::size_t>(b)] == nullptr || data.summed)
@@ -401,7 +414,7 @@ void ContactStage::sum_responses(const Eigen::Ref<const MatX3>& forces, bool all
                     data.displacement.row(r) += z(r) * push.force;
             }
         },
-        1);
+        work >= 256 * entry_grain ? 1 : bodies);
 }
 
 // x_c = x_free_c + sum over c's sides of J_cb (sum_d z_d f_d^T): the same as W f, without W.
