@@ -54,7 +54,8 @@ namespace {
 
     /// The smallest share of a parallel loop, in W entries or contact points (about 20 to
     /// 60 ns each): a parallel loop costs a wake-up of the other threads, which on a virtual
-    /// machine can cost more than a few dozen such items (docs/method.md, "W in node space").
+    /// machine can cost more than a few dozen such items (docs/method.md, "Pages and
+    /// wake-ups").
     constexpr Index entry_grain = 256;
 
     /// f(begin, end) over [0, n) in blocks of at least `grain`, in parallel when there are two
