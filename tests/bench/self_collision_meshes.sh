@@ -35,6 +35,7 @@ done
 work="${SELF_BENCH_WORK:-$build/self_collision_meshes}"
 archive=/usr/share/doc/libcgal-dev/data.tar.gz
 mkdir -p "$work"
+work="$(cd "$work" && pwd)" # the scenes name their bakes by this path, not relative to themselves
 if [ ! -d "$work/data/meshes" ]; then
     [ -f "$archive" ] || { echo "self_collision_meshes: no $archive (apt-get install libcgal-dev)" >&2; exit 1; }
     tar -xzf "$archive" -C "$work" data/meshes
