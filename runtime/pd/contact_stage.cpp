@@ -323,21 +323,17 @@ void ContactStage::set_preloads(Index first_body_contact)
     const Index m = static_cast<Index>(m_records.size());
     for (Index a = first_body_contact; a < m; ++a) {
         const Record& record = m_records[static_cast<std::size_t>(a)];
-        bool preload = !record.self;
-        for (int s = 0; s < record.num_sides; ++s)
-            preload = preload
-                && m_solvers[static_cast<std::size_t>(
-                                 record.sides[static_cast<std::size_t>(s)].body)]
-                       ->options()
-                       .compliance_preload;
         // A point that starts the step further behind its plane than a resting contact sits
         // (the smaller of its bodies' resting depths) is not resting: it keeps the plain
         // compliance, so that a contact that cannot be met is not hardened step after step.
+        bool preload = !record.self;
         double depth = std::numeric_limits<double>::infinity();
-        for (int s = 0; s < record.num_sides; ++s)
-            depth = std::min(depth,
-                m_data[static_cast<std::size_t>(record.sides[static_cast<std::size_t>(s)].body)]
-                    .resting_depth);
+        for (int s = 0; s < record.num_sides; ++s) {
+            const auto body
+                = static_cast<std::size_t>(record.sides[static_cast<std::size_t>(s)].body);
+            preload = preload && m_solvers[body]->options().compliance_preload;
+            depth = std::min(depth, m_data[body].resting_depth);
+        }
         PlaneCollider& plane = m_planes[static_cast<std::size_t>(m_pairs[a].plane)];
         preload = preload && plane.normal.dot(m_start.row(a).transpose() - plane.point) >= -depth;
         plane.preload
