@@ -138,6 +138,12 @@ namespace {
                 return 0.0;
             forces.row(c) = (f_n_new * n + f_t_new).transpose();
             const Index size = static_cast<Index>(scratch.working.size());
+            if (scratch.contiguous) {
+                const Eigen::Map<const VecX> column(
+                    coupling.column(c) + scratch.rows.front(), size);
+                scratch.working_positions.topRows(size).noalias() += column * delta.transpose();
+                return coupling_cc * delta.norm();
+            }
             if (!scratch.ready[k]) {
                 const double* column = coupling.column(c);
                 for (Index j = 0; j < size; ++j)
@@ -236,10 +242,13 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 std::max(size, 2 * scratch.working_positions.rows()), 3);
         for (Index k = 0; k < size; ++k)
             scratch.working_positions.row(k) = positions.row(working[static_cast<std::size_t>(k)]);
-        if (scratch.working_columns.rows() < size)
+        scratch.contiguous = true;
+        for (std::size_t j = 1; j < rows.size() && scratch.contiguous; ++j)
+            scratch.contiguous = rows[j] == rows[0] + static_cast<int>(j);
+        if (!scratch.contiguous && scratch.working_columns.rows() < size)
             scratch.working_columns.resize(
                 std::max(size, 2 * scratch.working_columns.rows()), scratch.working_columns.cols());
-        if (scratch.working_columns.cols() < size)
+        if (!scratch.contiguous && scratch.working_columns.cols() < size)
             scratch.working_columns.resize(
                 scratch.working_columns.rows(), std::max(size, 2 * scratch.working_columns.cols()));
         scratch.ready.assign(working.size(), 0);

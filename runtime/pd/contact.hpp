@@ -95,6 +95,11 @@ struct ContactScratch {
     Eigen::Matrix<double, Eigen::Dynamic, 3> working_positions;
     MatX working_columns;
     std::vector<char> ready;
+    /// Whether the working set's rows are consecutive (rows[j] = rows[0] + j, as in a step's
+    /// first solve, whose contacts are covered in working order): the sweeps then read the
+    /// coupling's columns in place, with no copy into working_columns (whose pages, written for
+    /// the first time, cost more than the copy on a machine whose page faults are dear).
+    bool contiguous = false;
 };
 
 /// The coupling D between the contacts' points (m contacts) as the solve uses it; D is symmetric

@@ -283,6 +283,9 @@ void ContactStage::begin_step(
     m_rows.clear();
     m_cols.clear();
     m_column_sides.clear();
+    m_row_sides.clear();
+    m_row_index.clear();
+    m_row_value.clear();
     // Warm start: the last step's forces; then forget them, so that a contact that drops out
     // and comes back later does not start from a stale force (end_step writes the current ones).
     for (Index a = 0; a < m; ++a) {

@@ -283,6 +283,19 @@ private:
     /// several products at a time.
     void column_entries(
         const Index* contacts, const ColumnSides* const* columns, int count, double* out) const;
+    /// The covered rows' sides, packed in row order by cover(): a new column's entries
+    /// (column_rows()) then read each row's terms in one stream, not through its record.
+    struct RowSides {
+        int num_sides = 0;
+        std::array<int, 2> body {};
+        std::array<int, 2> count {};
+        std::array<int, 2> first {}; ///< into m_row_index / m_row_value
+    };
+    /// Packs covered contact c's sides (its node terms on a nodal body, else its direction).
+    void pack_row(Index c);
+    /// out[r - begin] = W between the contact of row r and `column`, for r in [begin, end): the
+    /// same sums, in the same order, as column_entries().
+    void column_rows(const ColumnSides& column, Index begin, Index end, double* out) const;
     /// After a solve before the step's last: each plane that follows the iterate, of a contact
     /// that has been in a working set, takes its face's outward normal in the kept solutions
     /// (the iterate's positions; docs/method.md, "Planes that follow the iterate").
@@ -321,6 +334,9 @@ private:
     std::vector<int> m_row_of, m_column_of; ///< per contact, its row / column (-1: none yet)
     std::vector<Index> m_rows, m_cols; ///< the contacts by row / column
     std::vector<ColumnSides> m_column_sides; ///< per column
+    std::vector<RowSides> m_row_sides; ///< per row (pack_row)
+    std::vector<int> m_row_index;
+    std::vector<double> m_row_value;
     MatX3 m_free, m_start, m_forces, m_positions; ///< m x 3 (m_free unused: see displace())
     ContactScratch m_scratch;
     ContactSettings m_settings;

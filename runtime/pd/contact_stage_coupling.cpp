@@ -274,9 +274,57 @@ int ContactStage::cover(Index c)
         }
     });
     m_diagonal(c) = coupling_between(c, c);
+    pack_row(c);
     m_rows.push_back(c);
     row = static_cast<int>(rows);
     return row;
+}
+
+void ContactStage::pack_row(Index c)
+{
+    const Record& record = m_records[static_cast<std::size_t>(c)];
+    RowSides row;
+    row.num_sides = record.num_sides;
+    for (int s = 0; s < record.num_sides; ++s) {
+        const Side& side = record.sides[static_cast<std::size_t>(s)];
+        const bool nodal = m_data[static_cast<std::size_t>(side.body)].nodal;
+        const int first = nodal ? side.first : side.dir_first;
+        const int count = nodal ? side.count : side.dir_count;
+        const int* index = nodal ? m_term_node.data() : m_dir_index.data();
+        const double* value = nodal ? m_term_weight.data() : m_dir_value.data();
+        row.body[static_cast<std::size_t>(s)] = side.body;
+        row.count[static_cast<std::size_t>(s)] = count;
+        row.first[static_cast<std::size_t>(s)] = static_cast<int>(m_row_index.size());
+        m_row_index.insert(m_row_index.end(), index + first, index + first + count);
+        m_row_value.insert(m_row_value.end(), value + first, value + first + count);
+    }
+    m_row_sides.push_back(row);
+}
+
+void ContactStage::column_rows(const ColumnSides& column, Index begin, Index end, double* out) const
+{
+    // column_entries' sums: per entry, column sides outer and row sides inner, each product a
+    // chain in its terms' order, added to the entry in that order (the same bits).
+    for (Index r = begin; r < end; ++r) {
+        const RowSides& row = m_row_sides[static_cast<std::size_t>(r)];
+        double sum = 0.0;
+        for (int sd = 0; sd < column.count; ++sd) {
+            const int body = column.body[static_cast<std::size_t>(sd)];
+            const double* z = column.response[static_cast<std::size_t>(sd)];
+            for (int sc = 0; sc < row.num_sides; ++sc) {
+                if (row.body[static_cast<std::size_t>(sc)] != body)
+                    continue;
+                const int* index = m_row_index.data() + row.first[static_cast<std::size_t>(sc)];
+                const double* value = m_row_value.data() + row.first[static_cast<std::size_t>(sc)];
+                const int count = row.count[static_cast<std::size_t>(sc)];
+                double dot = 0.0;
+                for (int i = 0; i < count; ++i)
+                    dot += value[i] * z[index[i]];
+                sum += column.scale[static_cast<std::size_t>(sd)] * dot;
+            }
+        }
+        out[r - begin] = sum;
+    }
 }
 
 // A new column: W between each covered contact and d (J_c D_b z_d over d's sides).
@@ -303,11 +351,7 @@ const double* ContactStage::column(Index d)
             sides.body[static_cast<std::size_t>(sd)] = side_d.body;
         }
         for_each_block(rows, [&](Index begin, Index end) {
-            std::array<const ColumnSides*, 64> column {};
-            column.fill(&sides);
-            for (Index r = begin; r < end; r += 64)
-                column_entries(m_rows.data() + r, column.data(),
-                    static_cast<int>(std::min<Index>(64, end - r)), &m_columns(r, cols));
+            column_rows(sides, begin, end, &m_columns(begin, cols));
         });
         m_cols.push_back(d);
         m_column_sides.push_back(sides);
