@@ -405,11 +405,15 @@ const double* ContactStage::response(Side& side, double& scale)
     const bool fresh = side.slot < 0;
     if (fresh) {
         side.slot = data.pool_used++;
-        if (side.slot >= static_cast<int>(data.pool_blocks.size()) * pool_block)
-            data.pool_blocks.emplace_back(global.response_size(), pool_block);
+        if (data.pool_blocks.empty())
+            data.pool_columns = huge_block_columns(global.response_size());
+        if (side.slot >= static_cast<Index>(data.pool_blocks.size()) * data.pool_columns)
+            data.pool_blocks.emplace_back(global.response_size(), data.pool_columns);
     }
-    auto column = data.pool_blocks[static_cast<std::size_t>(side.slot / pool_block)].col(
-        side.slot % pool_block);
+    Eigen::Map<VecX> column(
+        data.pool_blocks[static_cast<std::size_t>(side.slot / data.pool_columns)].col(
+            side.slot % data.pool_columns),
+        global.response_size());
     if (fresh) {
         column.setZero();
         for (int k = side.first; k < side.first + side.count; ++k)
@@ -431,12 +435,16 @@ const double* ContactStage::nodal(Side& side, double& scale)
     const bool fresh = side.nodal_slot < 0;
     if (fresh) {
         side.nodal_slot = data.nodal_used++;
-        if (side.nodal_slot >= static_cast<int>(data.nodal_blocks.size()) * nodal_block)
-            data.nodal_blocks.emplace_back(
-                m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes(), nodal_block);
+        const Index nodes = m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes();
+        if (data.nodal_blocks.empty())
+            data.nodal_columns = huge_block_columns(nodes);
+        if (side.nodal_slot >= static_cast<Index>(data.nodal_blocks.size()) * data.nodal_columns)
+            data.nodal_blocks.emplace_back(nodes, data.nodal_columns);
     }
-    auto column = data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / nodal_block)].col(
-        side.nodal_slot % nodal_block);
+    Eigen::Map<VecX> column(
+        data.nodal_blocks[static_cast<std::size_t>(side.nodal_slot / data.nodal_columns)].col(
+            side.nodal_slot % data.nodal_columns),
+        m_solvers[static_cast<std::size_t>(side.body)]->model().num_nodes());
     if (fresh) {
         column.setZero();
         for (int k = side.first; k < side.first + side.count; ++k)

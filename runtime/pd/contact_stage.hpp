@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "common/huge_pages.hpp"
 #include "runtime/pd/contact.hpp"
 
 namespace mat {
@@ -194,9 +195,10 @@ private:
         MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)
         std::vector<std::array<int, 2>> used; ///< (node, plane or -1) warm starts read
         /// The pool of multi-term sides' responses, one column each, formed when a side's is
-        /// first asked for in the step (most sides never push), in blocks of pool_block columns
-        /// that never move.
-        std::vector<MatX> pool_blocks;
+        /// first asked for in the step (most sides never push), in blocks of pool_columns
+        /// columns (huge_block_columns) that never move, in huge-page storage.
+        std::vector<HugePageBlock> pool_blocks;
+        Index pool_columns = 0;
         int pool_used = 0;
         std::vector<int> slots; ///< ContactResponse::direction's scratch
         /// W's entries on this body are taken in node space: a column's response as node
@@ -206,8 +208,9 @@ private:
         /// (ContactResponse::node_space; docs/method.md, "W in node space").
         bool nodal = false;
         /// The nodal pool: per side asked for, sum_t w_t D_b e_t (n values), in blocks of
-        /// nodal_block columns that never move.
-        std::vector<MatX> nodal_blocks;
+        /// nodal_columns columns (huge_block_columns) that never move, in huge-page storage.
+        std::vector<HugePageBlock> nodal_blocks;
+        Index nodal_columns = 0;
         int nodal_used = 0;
         /// displace()'s node positions of a nodal body (#nodes x 3): its sides' points are taken
         /// from them, and its sides have no direction.
@@ -258,7 +261,6 @@ private:
     /// The side's response (pool column or node response) and the scale of its single term.
     /// Computed when first asked for in the step.
     const double* response(Side& side, double& scale);
-    static constexpr Index pool_block = 64;
     /// J_cb D_b applied to a response of the same body: the side's direction times it.
     double side_apply(const Side& side, const double* response) const;
     /// On a nodal body (BodyData::nodal): the side's node-space response (its nodal pool
@@ -268,7 +270,6 @@ private:
     /// On a nodal body: J_c D_b J_d^T for two sides of it, from the nodal responses of d's
     /// terms (no pool column formed).
     double nodal_coupling(const Side& side_c, const Side& side_d);
-    static constexpr Index nodal_block = 64;
     /// A column's contact's responses, one per side (kept for the step: a response never moves
     /// once computed), so that the rows covered later read them in parallel. On a nodal body
     /// the response is the side's nodal() one.
@@ -330,7 +331,9 @@ private:
     std::vector<Index> m_body_terms; ///< per body, this step's contact terms on it
     /// W's columns of the contacts that have pushed this step, over the rows of the contacts
     /// that have been in a working set (ContactCoupling), with room to grow.
-    MatX m_columns;
+    /// In huge-page storage: its first writes at an impact were thousands of page faults
+    /// (docs/method.md, "Pages and wake-ups").
+    HugePageBlock m_columns;
     std::vector<int> m_row_of, m_column_of; ///< per contact, its row / column (-1: none yet)
     std::vector<Index> m_rows, m_cols; ///< the contacts by row / column
     std::vector<ColumnSides> m_column_sides; ///< per column

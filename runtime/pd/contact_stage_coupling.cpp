@@ -38,14 +38,16 @@ double ContactStage::coupling_between(Index c, Index d)
 
 namespace {
 
-    /// Grows `block`'s storage to at least rows x cols, keeping its used top-left corner.
-    void reserve_block(MatX& block, Index used_rows, Index used_cols, Index rows, Index cols)
+    /// Grows `block`'s room to at least rows x cols, keeping its used top-left corner.
+    void reserve_block(
+        HugePageBlock& block, Index used_rows, Index used_cols, Index rows, Index cols)
     {
         if (rows <= block.rows() && cols <= block.cols())
             return;
-        MatX grown(std::max(rows, 2 * block.rows()), std::max(cols, 2 * block.cols()));
-        grown.topLeftCorner(used_rows, used_cols) = block.topLeftCorner(used_rows, used_cols);
-        block.swap(grown);
+        HugePageBlock grown(std::max(rows, 2 * block.rows()), std::max(cols, 2 * block.cols()));
+        for (Index c = 0; c < used_cols; ++c)
+            std::copy(block.col(c), block.col(c) + used_rows, grown.col(c));
+        block = std::move(grown);
     }
 
 } // namespace
@@ -357,7 +359,7 @@ const double* ContactStage::column(Index d)
         m_column_sides.push_back(sides);
         col = static_cast<int>(cols);
     }
-    return m_columns.col(col).data();
+    return m_columns.col(col);
 }
 
 // Marks instead of a sort: one pass over the directions and one over each body's response rows.

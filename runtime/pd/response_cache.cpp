@@ -6,10 +6,24 @@
 
 namespace mat {
 
+namespace {
+
+    /// How many responses of `rows` doubles fit `bytes` (`up`: how many it takes to fill them).
+    Index columns_in(std::size_t bytes, Index rows, bool up = false)
+    {
+        const std::size_t column
+            = sizeof(double) * static_cast<std::size_t>(std::max<Index>(1, rows));
+        return static_cast<Index>((bytes + (up ? column - 1 : 0)) / column);
+    }
+
+} // namespace
+
 ResponseCache::ResponseCache(Index num_nodes, Index rows, std::size_t budget_bytes)
-    : m_rows(rows)
-    , m_capacity(std::max<Index>(block_columns,
-          static_cast<Index>(budget_bytes / (sizeof(double) * std::max<std::size_t>(1, rows)))))
+    : m_block_columns(std::max<Index>(64,
+        std::min({ num_nodes, columns_in(huge_page_min_bytes, rows, true),
+            columns_in(budget_bytes, rows) })))
+    , m_rows(rows)
+    , m_capacity(std::max(m_block_columns, columns_in(budget_bytes, rows)))
     , m_slot(static_cast<std::size_t>(num_nodes), -1)
 {
 }
@@ -54,8 +68,8 @@ Eigen::Ref<VecX> ResponseCache::column(int node, bool& fresh)
         if (m_free.empty()) {
             // A new block of free slots, taken from the lowest.
             const int first = static_cast<int>(m_node_of.size());
-            m_blocks.emplace_back(m_rows, block_columns);
-            m_node_of.resize(m_node_of.size() + block_columns, -1);
+            m_blocks.emplace_back(m_rows, m_block_columns);
+            m_node_of.resize(m_node_of.size() + static_cast<std::size_t>(m_block_columns), -1);
             m_asked.resize(m_node_of.size(), 0);
             for (int s = static_cast<int>(m_node_of.size()) - 1; s >= first; --s)
                 m_free.push_back(s);
@@ -65,7 +79,9 @@ Eigen::Ref<VecX> ResponseCache::column(int node, bool& fresh)
         m_node_of[static_cast<std::size_t>(slot)] = node;
     }
     m_asked[static_cast<std::size_t>(slot)] = m_step;
-    return m_blocks[static_cast<std::size_t>(slot / block_columns)].col(slot % block_columns);
+    return Eigen::Map<VecX>(
+        m_blocks[static_cast<std::size_t>(slot / m_block_columns)].col(slot % m_block_columns),
+        m_rows);
 }
 
 } // namespace mat

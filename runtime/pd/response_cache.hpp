@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/eigen_types.hpp"
+#include "common/huge_pages.hpp"
 
 namespace mat {
 
@@ -29,16 +30,21 @@ public:
     static constexpr std::size_t default_budget = std::size_t { 64 } << 20;
 
 private:
-    static constexpr Index block_columns = 64;
+    /// Columns per block: at least 64, and as many as make huge_page_min_bytes where the body
+    /// has that many nodes, so that a block is backed by huge pages (common/huge_pages.hpp).
+    Index m_block_columns = 64;
     Index m_rows = 0;
-    Index m_capacity = 0; ///< responses the budget holds (at least block_columns)
+    Index m_capacity = 0; ///< responses the budget holds (at least m_block_columns)
     long m_step = 0; ///< begin_step() calls so far
     std::vector<int> m_slot; ///< node -> slot, -1 if absent
     std::vector<int> m_node_of; ///< slot -> node, -1 if free
     std::vector<long> m_asked; ///< slot -> the step it was last asked for in
     std::vector<int> m_free; ///< free slots
     std::vector<int> m_order; ///< begin_step's scratch
-    std::vector<MatX> m_blocks; ///< the columns, block_columns per block (they never move)
+    /// The columns, m_block_columns per block (they never move), in huge-page storage where a
+    /// block is large enough: written column by column as nodes come into contact, its pages
+    /// were the most page faults of an impact (docs/method.md, "Pages and wake-ups").
+    std::vector<HugePageBlock> m_blocks;
 };
 
 } // namespace mat
