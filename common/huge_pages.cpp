@@ -8,14 +8,14 @@
 
 namespace mat {
 
-HugePageBuffer::HugePageBuffer(std::size_t count)
+HugePageBuffer::HugePageBuffer(std::size_t count, std::size_t min_bytes)
     : m_size(count)
 {
     if (count == 0)
         return;
     constexpr std::size_t huge = std::size_t { 2 } << 20;
     const std::size_t bytes = count * sizeof(double);
-    const bool large = bytes >= huge_page_min_bytes;
+    const bool large = bytes >= min_bytes;
     const std::size_t align = large ? huge : 64;
     const std::size_t rounded = (bytes + align - 1) / align * align;
     m_data.reset(static_cast<double*>(std::aligned_alloc(align, rounded)));

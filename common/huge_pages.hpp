@@ -18,14 +18,15 @@ namespace mat {
 /// touched, so it pays only where most of it will be written.
 constexpr std::size_t huge_page_min_bytes = std::size_t { 4 } << 20;
 
-/// `count` doubles, uninitialized (as Eigen's storage), 64-byte aligned; from
-/// huge_page_min_bytes up, 2 MiB-aligned, a whole number of 2 MiB pages, and advised for
-/// transparent huge pages (Linux madvise MADV_HUGEPAGE). The advice is a hint only: the contents
-/// and every result are the same whether the kernel grants it or not (and where it is not Linux).
+/// `count` doubles, uninitialized (as Eigen's storage), 64-byte aligned; from `min_bytes`
+/// (huge_page_min_bytes, or less for a buffer that is written whole at once) up, 2 MiB-aligned, a
+/// whole number of 2 MiB pages, and advised for transparent huge pages (Linux madvise
+/// MADV_HUGEPAGE). The advice is a hint only: the contents and every result are the same whether
+/// the kernel grants it or not (and where it is not Linux).
 class HugePageBuffer {
 public:
     HugePageBuffer() = default;
-    explicit HugePageBuffer(std::size_t count);
+    explicit HugePageBuffer(std::size_t count, std::size_t min_bytes = huge_page_min_bytes);
     double* data() const { return m_data.get(); }
     std::size_t size() const { return m_size; }
 
@@ -49,8 +50,8 @@ inline Index huge_block_columns(Index rows)
 class HugePageBlock {
 public:
     HugePageBlock() = default;
-    HugePageBlock(Index rows, Index cols)
-        : m_storage(static_cast<std::size_t>(rows * cols))
+    HugePageBlock(Index rows, Index cols, std::size_t min_bytes = huge_page_min_bytes)
+        : m_storage(static_cast<std::size_t>(rows * cols), min_bytes)
         , m_rows(rows)
         , m_cols(cols)
     {

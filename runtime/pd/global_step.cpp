@@ -138,11 +138,15 @@ Eigen::Ref<const VecX> ReducedGlobalStep::node_response(int node)
     return z;
 }
 
-const MatX& ReducedGlobalStep::basis_inverse()
+Eigen::Map<const MatX> ReducedGlobalStep::basis_inverse()
 {
-    if (m_basis_inverse.size() == 0)
-        m_basis_inverse.noalias() = m_model.basis() * m_inverse;
-    return m_basis_inverse;
+    const Index n = m_model.basis().rows();
+    const Index k = m_inverse.cols();
+    if (m_basis_inverse.rows() != n || m_basis_inverse.cols() != k) {
+        m_basis_inverse = HugePageBlock(n, k, huge_page_min_bytes / 4);
+        Eigen::Map<MatX>(m_basis_inverse.col(0), n, k).noalias() = m_model.basis() * m_inverse;
+    }
+    return Eigen::Map<const MatX>(m_basis_inverse.col(0), n, k);
 }
 
 Eigen::Ref<const VecX> ReducedGlobalStep::nodal_response(int node)
@@ -156,7 +160,7 @@ Eigen::Ref<const VecX> ReducedGlobalStep::nodal_response(int node)
         return column;
     }
     // B S^-1 b_j^T as a sum of b_j's entries times columns of B S^-1.
-    const MatX& basis_inverse = this->basis_inverse();
+    const Eigen::Map<const MatX> basis_inverse = this->basis_inverse();
     column.setZero();
     for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
         column.noalias() += it.value() * basis_inverse.col(it.index());

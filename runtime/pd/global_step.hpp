@@ -127,14 +127,17 @@ private:
     /// S^-1 when k <= dense_inverse_limit (else empty: the LLT's solves).
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m_inverse;
     MatX m_q_columns; ///< k x 3: the right-hand sides, column-major
-    MatX m_basis_inverse; ///< B S^-1  n x k (node_space()), formed when first asked for
+    /// B S^-1  n x k (node_space()), formed when first asked for; written whole at once, so in
+    /// huge pages from 1 MiB up (common/huge_pages.hpp): on small pages its first writes took
+    /// more time than its product.
+    HugePageBlock m_basis_inverse;
     bool m_node_space = false;
 
     /// m_q = S^-1 m_q_rows.
     void solve_rows();
     /// B S^-1 (node_space() only): its row j is node j's response, and D's node-space column
     /// j its columns weighted by b_j.
-    const MatX& basis_inverse();
+    Eigen::Map<const MatX> basis_inverse();
 };
 
 /// Largest reduced system whose inverse ReducedGlobalStep keeps (1500 columns: 18 MB).
