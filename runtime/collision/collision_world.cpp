@@ -453,7 +453,7 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
                 m_contacts.face_terms.push_back(ContactTerm {
                     hit.other_body, surface.nodes()(face(k), c), surface.weights()(face(k), c) });
         close_contact(hit.normal, hit.node, hit.body == hit.other_body, face_first);
-        m_report.max_penetration = std::max(m_report.max_penetration, -hit.distance);
+        m_report.max_penetration = std::max(m_report.max_penetration, -hit.plane);
     }
     // One per surface edge that has one (the nearest edge crossing it), sorted by (body, edge):
     // the edge's closest point against the other edge's, keyed after the body's vertices.

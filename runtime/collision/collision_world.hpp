@@ -82,7 +82,10 @@ struct CollisionReport {
     int intersecting_triangles = 0; ///< distinct triangle pairs that intersect
     int contacts = 0; ///< contacts handed to the solvers (vertex-face and edge-edge)
     int edge_contacts = 0; ///< of which edge-edge
-    double max_penetration = 0.0; ///< deepest node behind the other surface (m)
+    /// The deepest candidate node behind its triangle's plane at detection (m): the largest gap
+    /// a contact starts from (NodeCandidate::plane). The exact depth inside the other body is
+    /// `--check-collisions`' (runtime/measures/collision_check.hpp).
+    double max_penetration = 0.0;
     double bounds_seconds = 0.0; ///< bounds update, surfaces and boxes in world coordinates
     double hash_seconds = 0.0; ///< broad phase
     double primitive_seconds = 0.0; ///< exact primitive tests

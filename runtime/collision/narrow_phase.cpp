@@ -449,6 +449,7 @@ namespace {
     struct FaceHit {
         PointTriangleClosest closest;
         double distance = 0.0; ///< signed: negative behind the triangle
+        double plane = 0.0; ///< signed, from the triangle's plane (NodeCandidate::plane)
         Vec3 normal = Vec3::UnitY();
     };
 
@@ -530,6 +531,7 @@ namespace {
             return false;
         hit.closest = closest;
         hit.distance = signed_distance;
+        hit.plane = unit.dot(q.x - closest.point);
         hit.normal = unit;
         return true;
     }
@@ -788,6 +790,7 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
             best.other_body = bf;
             best.face = f;
             best.distance = hit.distance;
+            best.plane = hit.plane;
             best.closest = hit.closest.point;
             best.barycentric = hit.closest.barycentric;
             best.normal = hit.normal;

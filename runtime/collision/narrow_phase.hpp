@@ -93,6 +93,10 @@ struct NodeCandidate {
     int other_body = 0;
     int face = 0; ///< the triangle, in other_body
     double distance = 0.0; ///< signed: negative behind the triangle
+    /// Signed distance from the triangle's plane along `normal`: the gap its contact starts
+    /// from. The same as `distance` where the closest point is inside the triangle; nearer 0
+    /// where it is on an edge or a corner (a node beside the triangle, not over it).
+    double plane = 0.0;
     Vec3 closest = Vec3::Zero(); ///< closest point of the triangle
     Vec3 barycentric = Vec3::Zero(); ///< its weights on the triangle's corners
     Vec3 normal = Vec3::UnitY(); ///< the triangle's unit outward normal

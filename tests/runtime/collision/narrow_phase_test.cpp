@@ -340,6 +340,11 @@ namespace {
                 const Vec3 x
                     = placed[static_cast<std::size_t>(c.body)]->nodes.row(c.node).transpose();
                 EXPECT_NEAR((x - c.closest).norm(), std::abs(c.distance), 1e-12) << what;
+                // Its plane distance is the node's from the triangle's plane: no further than
+                // the closest point, and on the same side.
+                EXPECT_NEAR(c.normal.dot(x - c.closest), c.plane, 1e-12) << what;
+                EXPECT_LE(std::abs(c.plane), std::abs(c.distance) + 1e-12) << what;
+                EXPECT_GE(c.plane * c.distance, 0.0) << what;
             }
             for (const auto& [node, distance] : expected.nearest) {
                 const auto it = by_node.find(node);
