@@ -8,20 +8,18 @@ namespace mat {
 
 namespace {
 
-    /// How many responses of `rows` doubles fit `bytes` (`up`: how many it takes to fill them).
-    Index columns_in(std::size_t bytes, Index rows, bool up = false)
+    /// How many responses of `rows` doubles fit `bytes`.
+    Index columns_in(std::size_t bytes, Index rows)
     {
-        const std::size_t column
-            = sizeof(double) * static_cast<std::size_t>(std::max<Index>(1, rows));
-        return static_cast<Index>((bytes + (up ? column - 1 : 0)) / column);
+        return static_cast<Index>(
+            bytes / (sizeof(double) * static_cast<std::size_t>(std::max<Index>(1, rows))));
     }
 
 } // namespace
 
 ResponseCache::ResponseCache(Index num_nodes, Index rows, std::size_t budget_bytes)
-    : m_block_columns(std::max<Index>(64,
-        std::min({ num_nodes, columns_in(huge_page_min_bytes, rows, true),
-            columns_in(budget_bytes, rows) })))
+    : m_block_columns(std::max<Index>(
+        64, std::min({ num_nodes, huge_block_columns(rows), columns_in(budget_bytes, rows) })))
     , m_rows(rows)
     , m_capacity(std::max(m_block_columns, columns_in(budget_bytes, rows)))
     , m_slot(static_cast<std::size_t>(num_nodes), -1)
