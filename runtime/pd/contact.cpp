@@ -110,8 +110,10 @@ namespace {
             const double w = coupling_cc + eps;
             const Vec3 n = plane.normal;
             const Index kk = static_cast<Index>(k);
-            const Vec3 x
-                = scratch.working_positions.row(kk).transpose() + eps * forces.row(c).transpose();
+            Vec3 x = scratch.working_positions.row(kk).transpose();
+            if (scratch.through_bodies)
+                x += coupling.moved(c);
+            x += eps * forces.row(c).transpose();
             const Vec3 f = forces.row(c).transpose();
             // Normal: the force that closes the gap (or none), Signorini.
             const double gap = n.dot(x - plane.point) - eps * plane.preload;
@@ -137,6 +139,10 @@ namespace {
             if (delta.squaredNorm() == 0.0)
                 return 0.0;
             forces.row(c) = (f_n_new * n + f_t_new).transpose();
+            if (scratch.through_bodies) {
+                coupling.push(c, delta);
+                return coupling_cc * delta.norm();
+            }
             const Index size = static_cast<Index>(scratch.working.size());
             if (scratch.contiguous) {
                 const Eigen::Map<const VecX> column(
@@ -233,8 +239,10 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
             if (member[static_cast<std::size_t>(c)])
                 working.push_back(c);
         rows.clear();
-        for (const Index c : working)
-            rows.push_back(coupling.cover(c));
+        scratch.through_bodies = coupling.sweep_through_bodies(working);
+        if (!scratch.through_bodies)
+            for (const Index c : working)
+                rows.push_back(coupling.cover(c));
         // The sweeps on contiguous copies of the working set's positions and columns.
         const Index size = static_cast<Index>(working.size());
         if (scratch.working_positions.rows() < size)
@@ -242,13 +250,14 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 std::max(size, 2 * scratch.working_positions.rows()), 3);
         for (Index k = 0; k < size; ++k)
             scratch.working_positions.row(k) = positions.row(working[static_cast<std::size_t>(k)]);
-        scratch.contiguous = true;
+        scratch.contiguous = !scratch.through_bodies;
         for (std::size_t j = 1; j < rows.size() && scratch.contiguous; ++j)
             scratch.contiguous = rows[j] == rows[0] + static_cast<int>(j);
-        if (!scratch.contiguous && scratch.working_columns.rows() < size)
+        const bool copies = !scratch.contiguous && !scratch.through_bodies;
+        if (copies && scratch.working_columns.rows() < size)
             scratch.working_columns.resize(
                 std::max(size, 2 * scratch.working_columns.rows()), scratch.working_columns.cols());
-        if (!scratch.contiguous && scratch.working_columns.cols() < size)
+        if (copies && scratch.working_columns.cols() < size)
             scratch.working_columns.resize(
                 scratch.working_columns.rows(), std::max(size, 2 * scratch.working_columns.cols()));
         scratch.ready.assign(working.size(), 0);
@@ -261,8 +270,12 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 break;
             }
         }
-        for (Index k = 0; k < size; ++k)
-            positions.row(working[static_cast<std::size_t>(k)]) = scratch.working_positions.row(k);
+        for (Index k = 0; k < size; ++k) {
+            const Index c = working[static_cast<std::size_t>(k)];
+            positions.row(c) = scratch.working_positions.row(k);
+            if (scratch.through_bodies)
+                positions.row(c) += coupling.moved(c).transpose();
+        }
         if (sweep >= settings.max_sweeps && !settings.outside_positions)
             break;
         // Every other position from the forces, then the contacts that have come into their

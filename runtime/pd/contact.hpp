@@ -75,6 +75,13 @@ struct ContactSettings {
     /// false: that pass over every contact is then saved (docs/method.md, section 5,
     /// "Iterations").
     bool outside_positions = true;
+    /// Sweeps through the bodies (ContactCoupling::sweep_through_bodies) when the working set
+    /// holds more than this fraction of the rows one change of force moves through them (a
+    /// contact's bodies' node counts): there the columns of W over the working set cost more,
+    /// in their entries and their first writes, than the bodies' displacements. 0: always
+    /// (where the coupling can), infinity: never. Measured on creatures_collide (docs/method.md,
+    /// "Sweeps through the bodies").
+    double through_bodies = 0.25;
 };
 
 struct ContactSolveResult {
@@ -100,6 +107,10 @@ struct ContactScratch {
     /// coupling's columns in place, with no copy into working_columns (whose pages, written for
     /// the first time, cost more than the copy on a machine whose page faults are dear).
     bool contiguous = false;
+    /// Whether the sweeps over this working set move its points through the coupling's own
+    /// per-body displacements (ContactCoupling::sweep_through_bodies): working_positions then
+    /// hold the points at the start of the sweeps, and a point is that plus moved().
+    bool through_bodies = false;
 };
 
 /// The coupling D between the contacts' points (m contacts) as the solve uses it; D is symmetric
@@ -127,6 +138,17 @@ public:
         const Eigen::Ref<const MatX3>& forces, const std::vector<char>* keep,
         Eigen::Ref<MatX3> positions)
         = 0;
+    /// Whether the sweeps over `working` (increasing) should move the working points through
+    /// the coupling's own displacements of the bodies (moved(), push()) instead of D's columns
+    /// over the working set: where a force's change costs less that way than a column's update
+    /// over a large working set (docs/method.md, "Sweeps through the bodies"). When it says
+    /// yes, the working contacts' diagonal entries are ready, nothing is covered, and the
+    /// displacements start at zero. By default: never.
+    virtual bool sweep_through_bodies(const std::vector<Index>& /*working*/) { return false; }
+    /// During sweeps through the bodies: how far contact c's point has moved since they began.
+    virtual Vec3 moved(Index /*c*/) const { return Vec3::Zero(); }
+    /// During sweeps through the bodies: contact c's force has changed by `delta`.
+    virtual void push(Index /*c*/, const Vec3& /*delta*/) { }
 };
 
 /// A coupling given whole, m x m (small problems and tests).

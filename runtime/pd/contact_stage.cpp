@@ -249,6 +249,9 @@ void ContactStage::begin_step(
                                              : std::max(m_settings.max_sweeps, settings.max_sweeps);
         m_settings.tolerance = first_solver ? settings.tolerance
                                             : std::min(m_settings.tolerance, settings.tolerance);
+        m_settings.through_bodies = first_solver
+            ? settings.through_bodies
+            : std::max(m_settings.through_bodies, settings.through_bodies);
         first_solver = false;
     }
     for (std::size_t b = 0; b < bodies.size(); ++b)
@@ -278,6 +281,8 @@ void ContactStage::begin_step(
     // Nothing of W yet: a contact's diagonal entry and responses when it joins a working set
     // (cover()), its column when it first pushes (column()).
     m_diagonal.setZero();
+    m_diagonal_known.assign(static_cast<std::size_t>(m), 0);
+    m_joined.clear();
     m_row_of.assign(static_cast<std::size_t>(m), -1);
     m_column_of.assign(static_cast<std::size_t>(m), -1);
     m_rows.clear();

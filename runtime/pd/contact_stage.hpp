@@ -235,6 +235,10 @@ private:
         MatX3 node_positions;
         std::vector<int> turn_nodes;
         std::vector<long> node_stamp;
+        /// Sweeps through the bodies (sweep_through_bodies(), nodal bodies only): the node
+        /// displacements of the force changes since they began, #nodes x 3, column-major (a
+        /// push is three contiguous updates).
+        MatX swept;
         /// A reduced body's 1 / A_ii per node, A its full-space system (empty: full space): the
         /// compliance floor of its self contacts (docs/method.md, "Self contacts of reduced
         /// bodies").
@@ -311,6 +315,12 @@ private:
     const double* column(Index c) override;
     void displace(const Eigen::Ref<const MatX3>& free, const Eigen::Ref<const MatX3>& forces,
         const std::vector<char>* keep, Eigen::Ref<MatX3> positions) override;
+    bool sweep_through_bodies(const std::vector<Index>& working) override;
+    Vec3 moved(Index c) const override;
+    void push(Index c, const Vec3& delta) override;
+    /// Contact c's diagonal entry W_cc, if it is not computed yet this step (it has joined a
+    /// working set: m_joined).
+    void ensure_diagonal(Index c);
     /// Each stepped body's displacement by `forces`: sum over its sides of z f^T (`all_rows`
     /// false: only the rows its directions read), but for the bodies whose displacement is
     /// summed already (BodyData::summed).
@@ -328,6 +338,10 @@ private:
     std::vector<PlaneCollider> m_planes;
     std::vector<ContactPair> m_pairs; ///< (contact, its plane) for the Gauss-Seidel solve
     VecX m_diagonal; ///< W_cc  m
+    /// Per contact, whether m_diagonal's entry is computed: when it first joins a working set
+    /// (ensure_diagonal()), which appends it to m_joined (the planes that turn).
+    std::vector<char> m_diagonal_known;
+    std::vector<Index> m_joined;
     std::vector<Index> m_body_terms; ///< per body, this step's contact terms on it
     /// W's columns of the contacts that have pushed this step, over the rows of the contacts
     /// that have been in a working set (ContactCoupling), with room to grow.

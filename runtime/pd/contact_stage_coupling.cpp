@@ -196,7 +196,7 @@ void ContactStage::turn_planes()
     ++m_turn_stamp;
     for (BodyData& data : m_data)
         data.turn_nodes.clear();
-    for (const Index a : m_rows) {
+    for (const Index a : m_joined) {
         const Record& record = m_records[static_cast<std::size_t>(a)];
         if (record.face < 0)
             continue;
@@ -226,8 +226,8 @@ void ContactStage::turn_planes()
             data.node_positions.row(node) = step.node_position(node).transpose();
         });
     }
-    for_each_index(static_cast<Index>(m_rows.size()), [&](Index row) {
-        const Index a = m_rows[static_cast<std::size_t>(row)];
+    for_each_index(static_cast<Index>(m_joined.size()), [&](Index j) {
+        const Index a = m_joined[static_cast<std::size_t>(j)];
         const Record& record = m_records[static_cast<std::size_t>(a)];
         if (record.face < 0)
             return;
@@ -275,7 +275,7 @@ int ContactStage::cover(Index c)
                 m_columns(rows, p + k) = entry[static_cast<std::size_t>(k)];
         }
     });
-    m_diagonal(c) = coupling_between(c, c);
+    ensure_diagonal(c);
     pack_row(c);
     m_rows.push_back(c);
     row = static_cast<int>(rows);
@@ -360,6 +360,76 @@ const double* ContactStage::column(Index d)
         col = static_cast<int>(cols);
     }
     return m_columns.col(col);
+}
+
+void ContactStage::ensure_diagonal(Index c)
+{
+    char& known = m_diagonal_known[static_cast<std::size_t>(c)];
+    if (known)
+        return;
+    m_diagonal(c) = coupling_between(c, c);
+    known = 1;
+    m_joined.push_back(c);
+}
+
+// A change of force costs an update of W's column over the working set (three per working
+// contact, and the column's entries when it first pushes), or of its sides' bodies' node
+// displacements (three per node of each): the second where the working set is larger than
+// ContactSettings::through_bodies times the latter. Only where every side is on a nodal body
+// (a full-space body's frames stay the same bits). Both are the same Gauss-Seidel sweeps; only
+// the rounding of the points differs (docs/method.md, "Sweeps through the bodies").
+bool ContactStage::sweep_through_bodies(const std::vector<Index>& working)
+{
+    Index widest = 0; // the most node rows a change of force updates through the bodies
+    for (const Index c : working) {
+        const Record& record = m_records[static_cast<std::size_t>(c)];
+        Index rows = 0;
+        for (int s = 0; s < record.num_sides; ++s) {
+            const int body = record.sides[static_cast<std::size_t>(s)].body;
+            if (!m_data[static_cast<std::size_t>(body)].nodal)
+                return false;
+            rows += m_solvers[static_cast<std::size_t>(body)]->model().num_nodes();
+        }
+        widest = std::max(widest, rows);
+    }
+    if (!(static_cast<double>(working.size())
+            > m_settings.through_bodies * static_cast<double>(widest)))
+        return false;
+    for (const Index c : working)
+        ensure_diagonal(c);
+    for (std::size_t b = 0; b < m_data.size(); ++b)
+        if (m_solvers[b] != nullptr && m_data[b].nodal)
+            m_data[b].swept.setZero(m_solvers[b]->model().num_nodes(), 3);
+    return true;
+}
+
+Vec3 ContactStage::moved(Index c) const
+{
+    const Record& record = m_records[static_cast<std::size_t>(c)];
+    Vec3 x = Vec3::Zero();
+    for (int s = 0; s < record.num_sides; ++s) {
+        const Side& side = record.sides[static_cast<std::size_t>(s)];
+        const MatX& swept = m_data[static_cast<std::size_t>(side.body)].swept;
+        const Index nodes = swept.rows();
+        for (int t = side.first; t < side.first + side.count; ++t) {
+            const double* row = swept.data() + m_term_node[static_cast<std::size_t>(t)];
+            x += m_term_weight[static_cast<std::size_t>(t)]
+                * Vec3(row[0], row[nodes], row[2 * nodes]);
+        }
+    }
+    return x;
+}
+
+void ContactStage::push(Index c, const Vec3& delta)
+{
+    Record& record = m_records[static_cast<std::size_t>(c)];
+    for (int s = 0; s < record.num_sides; ++s) {
+        Side& side = record.sides[static_cast<std::size_t>(s)];
+        MatX& swept = m_data[static_cast<std::size_t>(side.body)].swept;
+        double scale = 1.0;
+        const Eigen::Map<const VecX> response(nodal(side, scale), swept.rows());
+        swept.noalias() += response * (scale * delta).transpose();
+    }
 }
 
 // Marks instead of a sort: one pass over the directions and one over each body's response rows.
