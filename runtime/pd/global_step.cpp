@@ -122,15 +122,22 @@ void ReducedGlobalStep::solve(const LocalSums& rhs, SolverTimings& timings)
 
 Eigen::Ref<const VecX> ReducedGlobalStep::node_response(int node)
 {
+    if (m_node_space) {
+        // S^-1 b_j^T is row j of B S^-1 (S symmetric): column j of its transpose, formed whole
+        // with it.
+        const Index k = m_inverse.cols();
+        if (m_inverse_basis.rows() != k) {
+            const Eigen::Map<const MatX> basis_inverse = this->basis_inverse();
+            m_inverse_basis = HugePageBlock(k, basis_inverse.rows(), huge_page_min_bytes / 4);
+            Eigen::Map<MatX>(m_inverse_basis.col(0), k, basis_inverse.rows()).noalias()
+                = basis_inverse.transpose();
+        }
+        return Eigen::Map<const VecX>(m_inverse_basis.col(node), k);
+    }
     bool fresh = false;
     auto z = m_cache.column(node, fresh);
     if (!fresh)
         return z;
-    if (m_node_space) {
-        // S^-1 b_j^T is row j of B S^-1 (S symmetric).
-        z = basis_inverse().row(node).transpose();
-        return z;
-    }
     z.setZero();
     for (SparseRowMatrix::InnerIterator it(m_model.basis(), node); it; ++it)
         z(it.index()) = it.value();
