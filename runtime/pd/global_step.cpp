@@ -123,16 +123,9 @@ void ReducedGlobalStep::solve(const LocalSums& rhs, SolverTimings& timings)
 Eigen::Ref<const VecX> ReducedGlobalStep::node_response(int node)
 {
     if (m_node_space) {
-        // S^-1 b_j^T is row j of B S^-1 (S symmetric): column j of its transpose, formed whole
-        // with it.
-        const Index k = m_inverse.cols();
-        if (m_inverse_basis.rows() != k) {
-            const Eigen::Map<const MatX> basis_inverse = this->basis_inverse();
-            m_inverse_basis = HugePageBlock(k, basis_inverse.rows(), huge_page_min_bytes / 4);
-            Eigen::Map<MatX>(m_inverse_basis.col(0), k, basis_inverse.rows()).noalias()
-                = basis_inverse.transpose();
-        }
-        return Eigen::Map<const VecX>(m_inverse_basis.col(node), k);
+        // S^-1 b_j^T is row j of B S^-1 (S symmetric): column j of its transpose.
+        basis_inverse();
+        return Eigen::Map<const VecX>(m_inverse_basis.col(node), m_inverse_basis.rows());
     }
     bool fresh = false;
     auto z = m_cache.column(node, fresh);
@@ -152,6 +145,9 @@ Eigen::Map<const MatX> ReducedGlobalStep::basis_inverse()
     if (m_basis_inverse.rows() != n || m_basis_inverse.cols() != k) {
         m_basis_inverse = HugePageBlock(n, k, huge_page_min_bytes / 4);
         Eigen::Map<MatX>(m_basis_inverse.col(0), n, k).noalias() = m_model.basis() * m_inverse;
+        m_inverse_basis = HugePageBlock(k, n, huge_page_min_bytes / 4);
+        Eigen::Map<MatX>(m_inverse_basis.col(0), k, n).noalias()
+            = Eigen::Map<const MatX>(m_basis_inverse.col(0), n, k).transpose();
     }
     return Eigen::Map<const MatX>(m_basis_inverse.col(0), n, k);
 }

@@ -131,15 +131,16 @@ private:
     /// huge pages from 1 MiB up (common/huge_pages.hpp): on small pages its first writes took
     /// more time than its product.
     HugePageBlock m_basis_inverse;
-    /// Its transpose, S^-1 B^T  k x n: column j is node j's response S^-1 b_j^T, contiguous
-    /// (node_response() returns it, where a row of B S^-1 would be gathered n apart).
+    /// Its transpose, S^-1 B^T  k x n, formed with it: column j is node j's response
+    /// S^-1 b_j^T, contiguous (node_response() returns it, where a row of B S^-1 would be
+    /// gathered n apart).
     HugePageBlock m_inverse_basis;
     bool m_node_space = false;
 
     /// m_q = S^-1 m_q_rows.
     void solve_rows();
-    /// B S^-1 (node_space() only): its row j is node j's response, and D's node-space column
-    /// j its columns weighted by b_j.
+    /// B S^-1 (node_space() only), with m_inverse_basis: its row j is node j's response, and
+    /// D's node-space column j its columns weighted by b_j.
     Eigen::Map<const MatX> basis_inverse();
 };
 
