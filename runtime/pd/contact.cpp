@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include <Eigen/Cholesky>
+
 #include "common/error.hpp"
 
 namespace mat {
@@ -162,6 +164,210 @@ namespace {
             return coupling_cc * delta.norm();
         }
 
+        /// Contact c's compliance eps (its conditions hold at x + eps f).
+        double compliance_of(Index c) const
+        {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            return std::max(plane.compliance * diagonal(c), plane.compliance_floor);
+        }
+
+        /// Where contact c's x + eps f must be for it to stick: on its plane (at the preload's
+        /// offset), tangentially where it started the step; minus where it is.
+        Vec3 residual(Index c, Index k, const ContactScratch& scratch) const
+        {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            const double eps = compliance_of(c);
+            const Vec3& n = plane.normal;
+            const Vec3 start = start_positions.row(c).transpose();
+            const Vec3 target = start + (n.dot(plane.point - start) + eps * plane.preload) * n;
+            Vec3 x = scratch.working_positions.row(k).transpose();
+            return target - x - eps * forces.row(c).transpose();
+        }
+
+        /// A subspace step (docs/method.md, "Subspace steps"): with the working contacts that
+        /// push split into those that stick (the tangent strictly inside the friction disk) and
+        /// the others (slipping, or without friction), the step to the forces that meet their
+        /// conditions as equalities, every other force held: x_c + eps_c f_c at its target in
+        /// all three directions for one that sticks (S), along its normal only for the others
+        /// (L, their tangential force held, their change lambda_c n_c). The step is cut short
+        /// where a force would leave its cone (a sticking one) or its normal force would change
+        /// sign (the others), so every force stays feasible and the step lowers the solve's
+        /// quadratic; the sweeps that follow correct what the held forces and a wrong split
+        /// leave.
+        void subspace(ContactScratch& scratch, int limit)
+        {
+            const Index q = split_pushing(scratch);
+            if (q < 2 || q > limit || !subspace_changes(scratch))
+                return;
+            auto changes = scratch.subspace_rhs.topRows(q);
+            double fraction = 1.0;
+            for (Index i = 0; i < q; ++i) {
+                const Index c = pushing_contact(scratch, i);
+                const PlaneCollider& plane = planes[pairs[c].plane];
+                const Vec3 f = forces.row(c).transpose();
+                const Vec3 d = changes.row(i).transpose();
+                fraction = std::min(fraction,
+                    i < scratch.sticking ? cone_fraction(f, d, plane.normal, plane.friction)
+                                         : normal_fraction(f, d, plane.normal));
+            }
+            if (!(fraction > 0.0))
+                return;
+            const Index size = static_cast<Index>(scratch.working.size());
+            for (Index i = 0; i < q; ++i) {
+                const Index c = pushing_contact(scratch, i);
+                const Vec3 delta = fraction * changes.row(i).transpose();
+                forces.row(c) += delta.transpose();
+                const double* column = coupling.column(c);
+                if (scratch.contiguous) {
+                    const Eigen::Map<const VecX> in_place(column + scratch.rows.front(), size);
+                    scratch.working_positions.topRows(size).noalias()
+                        += in_place * delta.transpose();
+                } else
+                    for (Index k = 0; k < size; ++k)
+                        scratch.working_positions.row(k)
+                            += column[scratch.rows[static_cast<std::size_t>(k)]]
+                            * delta.transpose();
+            }
+        }
+
+        /// The working members that push into scratch.pushing, those that stick first
+        /// (scratch.sticking of them); returns how many push.
+        Index split_pushing(ContactScratch& scratch) const
+        {
+            std::vector<Index>& pushing = scratch.pushing;
+            pushing.clear();
+            scratch.sticking = 0;
+            for (int pass = 0; pass < 2; ++pass) {
+                for (std::size_t k = 0; k < scratch.working.size(); ++k) {
+                    const Index c = scratch.working[k];
+                    const PlaneCollider& plane = planes[pairs[c].plane];
+                    const Vec3 f = forces.row(c).transpose();
+                    const double f_n = plane.normal.dot(f);
+                    if (!(f_n > 0.0))
+                        continue;
+                    // Strictly inside, with room for the rounding of a projection onto the disk.
+                    const bool sticks
+                        = (f - f_n * plane.normal).norm() < (1.0 - 1e-6) * plane.friction * f_n;
+                    if (sticks == (pass == 0))
+                        pushing.push_back(static_cast<Index>(k));
+                }
+                if (pass == 0)
+                    scratch.sticking = static_cast<Index>(pushing.size());
+            }
+            return static_cast<Index>(pushing.size());
+        }
+
+        /// The pushing member i's contact.
+        static Index pushing_contact(const ContactScratch& scratch, Index i)
+        {
+            return scratch
+                .working[static_cast<std::size_t>(scratch.pushing[static_cast<std::size_t>(i)])];
+        }
+
+        /// The subspace step's force changes, one row per pushing member, into
+        /// scratch.subspace_rhs; false if a factorization fails. With A = D + E over the
+        /// pushing members (E their compliances), K = A_SS and R their residuals:
+        ///   K F_S + A_SL diag(lambda) N_L = R_S,
+        ///   n_i . (A_LS F_S + sum_k A_ik lambda_k n_k)_i = n_i . R_i   (i in L),
+        /// solved through the Schur complement of K (D is isotropic, so one scalar Cholesky of
+        /// K serves the three directions): (T o G) lambda = n . (R_L - A_LS K^-1 R_S) with
+        /// T = A_LL - A_LS K^-1 A_SL and G_ik = n_i . n_k, then
+        /// F_S = K^-1 (R_S - A_SL diag(lambda) N_L).
+        bool subspace_changes(ContactScratch& scratch) const
+        {
+            const Index q = static_cast<Index>(scratch.pushing.size());
+            const Index s = scratch.sticking;
+            const Index l = q - s;
+            grow(scratch.subspace_matrix, q, q);
+            grow(scratch.subspace_cross, s, l);
+            if (scratch.subspace_rhs.rows() < q)
+                scratch.subspace_rhs.resize(std::max(q, 2 * scratch.subspace_rhs.rows()), 3);
+            auto a = scratch.subspace_matrix.topLeftCorner(q, q);
+            auto r = scratch.subspace_rhs.topRows(q);
+            for (Index j = 0; j < q; ++j) { // A's lower triangle, and R
+                const Index c = pushing_contact(scratch, j);
+                const double* column = coupling.column(c);
+                a(j, j) = diagonal(c) + compliance_of(c);
+                for (Index i = j + 1; i < q; ++i)
+                    a(i, j) = column[scratch.rows[static_cast<std::size_t>(
+                        scratch.pushing[static_cast<std::size_t>(i)])]];
+                r.row(j) = residual(c, scratch.pushing[static_cast<std::size_t>(j)], scratch)
+                               .transpose();
+            }
+            auto k_ss = a.topLeftCorner(s, s);
+            auto a_ls = a.bottomLeftCorner(l, s);
+            auto t = a.bottomRightCorner(l, l);
+            auto x = scratch.subspace_cross.topLeftCorner(s, l);
+            auto r_s = r.topRows(s);
+            auto r_l = r.bottomRows(l);
+            Eigen::LLT<Eigen::Ref<MatX>> k_factor(k_ss);
+            if (k_factor.info() != Eigen::Success)
+                return false;
+            if (s > 0) {
+                k_factor.solveInPlace(r_s); // K^-1 R_S
+                if (l > 0) {
+                    x = a_ls.transpose();
+                    k_factor.solveInPlace(x); // K^-1 A_SL
+                    t.template triangularView<Eigen::Lower>() -= a_ls * x;
+                    r_l.noalias() -= a_ls * r_s;
+                }
+            }
+            if (l == 0)
+                return true;
+            for (Index j = 0; j < l; ++j) {
+                const Vec3& n_j = planes[pairs[pushing_contact(scratch, s + j)].plane].normal;
+                for (Index i = j + 1; i < l; ++i)
+                    t(i, j) *= n_j.dot(planes[pairs[pushing_contact(scratch, s + i)].plane].normal);
+                r_l(j, 0) = n_j.dot(r_l.row(j).transpose()); // lambda, once solved
+            }
+            Eigen::LLT<Eigen::Ref<MatX>> t_factor(t);
+            if (t_factor.info() != Eigen::Success)
+                return false;
+            auto lambda = r_l.col(0);
+            t_factor.solveInPlace(lambda);
+            // The rows of L become lambda_j n_j; F_S -= K^-1 A_SL (those rows).
+            for (Index j = 0; j < l; ++j)
+                r_l.row(j) = r_l(j, 0)
+                    * planes[pairs[pushing_contact(scratch, s + j)].plane].normal.transpose();
+            if (s > 0)
+                r_s.noalias() -= x * r_l;
+            return true;
+        }
+
+        static void grow(MatX& matrix, Index rows, Index cols)
+        {
+            if (matrix.rows() < rows || matrix.cols() < cols)
+                matrix.resize(std::max(rows, 2 * matrix.rows()), std::max(cols, 2 * matrix.cols()));
+        }
+
+        /// The largest a in [0, 1] with n . (f + a d) >= 0, n . f > 0.
+        static double normal_fraction(const Vec3& f, const Vec3& d, const Vec3& n)
+        {
+            const double f_n = n.dot(f);
+            const double d_n = n.dot(d);
+            return f_n + d_n >= 0.0 ? 1.0 : f_n / -d_n;
+        }
+
+        /// The largest a in [0, 1] with f + a d in the friction cone {|g_t| <= mu g_n} of normal
+        /// n, f inside it (the cone is convex, so the segment leaves it at most once).
+        static double cone_fraction(const Vec3& f, const Vec3& d, const Vec3& n, double mu)
+        {
+            const auto inside = [&](double a) {
+                const Vec3 g = f + a * d;
+                const double g_n = n.dot(g);
+                return g_n >= 0.0 && (g - g_n * n).norm() <= mu * g_n;
+            };
+            if (inside(1.0))
+                return 1.0;
+            double low = 0.0;
+            double high = 1.0;
+            for (int i = 0; i < 40; ++i) {
+                const double mid = 0.5 * (low + high);
+                (inside(mid) ? low : high) = mid;
+            }
+            return low;
+        }
+
         /// One sweep over the working set, in order: the largest position change.
         double sweep(ContactScratch& scratch)
         {
@@ -261,7 +467,7 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
             scratch.working_columns.resize(
                 scratch.working_columns.rows(), std::max(size, 2 * scratch.working_columns.cols()));
         scratch.ready.assign(working.size(), 0);
-        for (; sweep < settings.max_sweeps; ++sweep) {
+        for (int since = 1; sweep < settings.max_sweeps; ++sweep, ++since) {
             const double change = solve.sweep(scratch);
             result.sweeps = sweep + 1;
             result.last_change = change;
@@ -269,6 +475,9 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 ++sweep;
                 break;
             }
+            if (settings.subspace_every > 0 && since % settings.subspace_every == 0
+                && !scratch.through_bodies)
+                solve.subspace(scratch, settings.subspace_limit);
         }
         for (Index k = 0; k < size; ++k) {
             const Index c = working[static_cast<std::size_t>(k)];

@@ -82,6 +82,13 @@ struct ContactSettings {
     /// (where the coupling can), infinity: never. Measured on creatures_collide (docs/method.md,
     /// "Sweeps through the bodies").
     double through_bodies = 0.25;
+    /// After every this many sweeps of a working set (0: never, the default), a subspace step:
+    /// the step to the forces that meet the pushing contacts' conditions as equalities, the
+    /// others held (docs/method.md, "Subspace steps"; solver.contact_subspace). Not in sweeps
+    /// through the bodies.
+    int subspace_every = 0;
+    /// The most pushing contacts such a step solves for (dense Cholesky factors of that order).
+    int subspace_limit = 256;
 };
 
 struct ContactSolveResult {
@@ -111,6 +118,15 @@ struct ContactScratch {
     /// per-body displacements (ContactCoupling::sweep_through_bodies): working_positions then
     /// hold the points at the start of the sweeps, and a point is that plus moved().
     bool through_bodies = false;
+    /// The subspace steps' storage (docs/method.md, "Subspace steps"): the working members
+    /// that push (indices into `working`, those that stick first, `sticking` of them), their
+    /// block of D plus compliance (factored in place), K^-1 A_SL, and the residuals, then the
+    /// force changes.
+    std::vector<Index> pushing;
+    Index sticking = 0;
+    MatX subspace_matrix;
+    MatX subspace_cross;
+    Eigen::Matrix<double, Eigen::Dynamic, 3> subspace_rhs;
 };
 
 /// The coupling D between the contacts' points (m contacts) as the solve uses it; D is symmetric

@@ -252,8 +252,12 @@ void ContactStage::begin_step(
         m_settings.through_bodies = first_solver
             ? settings.through_bodies
             : std::max(m_settings.through_bodies, settings.through_bodies);
+        m_settings.subspace_every = first_solver
+            ? settings.subspace_every
+            : std::max(m_settings.subspace_every, settings.subspace_every);
         first_solver = false;
     }
+
     for (std::size_t b = 0; b < bodies.size(); ++b)
         if (bodies[b].solver != nullptr && !bodies[b].solver->options().planes.empty())
             add_ground_contacts(static_cast<int>(b), bodies[b]);
@@ -491,11 +495,15 @@ void ContactStage::solve(bool last)
         return;
     Timer timer;
     // Body contacts: the iterations before the last take at most early_sweeps sweeps (the PD
-    // iterate they push still moves; the last iteration's solve is the one that must hold).
+    // iterate they push still moves; the last iteration's solve is the one that must hold), and
+    // no subspace steps: one that converges there pays a pass over every candidate to see which
+    // join, and cost more than it saved (docs/method.md, "Subspace steps").
     ContactSettings settings = m_settings;
     settings.outside_positions = false; // only the forces are read below
-    if (!last && m_body_contacts > 0)
+    if (!last && m_body_contacts > 0) {
         settings.max_sweeps = std::min(settings.max_sweeps, settings.early_sweeps);
+        settings.subspace_every = 0;
+    }
     const ContactSolveResult result = solve_plane_contacts(
         *this, m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;

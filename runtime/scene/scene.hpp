@@ -64,6 +64,8 @@ struct SolverSettings {
     /// "on" or "off": contacts found again at the iterate halfway through a step (not in a step
     /// with a hyper-reduced object)
     bool detect_in_step = false;
+    /// "on" or "off": subspace steps in the contact solves (ContactSettings::subspace_every)
+    bool contact_subspace = false;
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

@@ -127,6 +127,7 @@ namespace {
         options.compliance_preload
             = scene.solver.compliance_preload && solver_kind != SolverKind::hyper_reduced;
         options.planes_follow_iterate = scene.solver.planes_follow_iterate;
+        options.contact.subspace_every = scene.solver.contact_subspace ? 4 : 0;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(
                 PlaneCollider { collider.point, collider.normal, collider.friction });

@@ -246,6 +246,83 @@ namespace {
             EXPECT_GT(bar.plane.normal.dot(positions.row(i).transpose()), -0.1 * 0.005) << i;
     }
 
+    TEST(PlaneContact, SubspaceStepsReachTheSameConditionsInFewerSweeps)
+    {
+        // 16 points of a stiff body (D nearly all alike: 1 + 0.02 I + a slow decay), pressed
+        // into the ground and drawn along it by different amounts, so that some stick and some
+        // slip: the subspace steps (docs/method.md, "Subspace steps") must give the forces
+        // the plain sweeps give, meet the Signorini-Coulomb conditions, and take far fewer
+        // sweeps.
+        constexpr Index m = 16;
+        MatX coupling(m, m);
+        for (Index i = 0; i < m; ++i)
+            for (Index j = 0; j < m; ++j)
+                coupling(i, j) = 1.0 / (1.0 + 0.02 * std::abs(static_cast<double>(i - j)))
+                    + (i == j ? 0.02 : 0.0);
+        PlaneCollider plane { Vec3::Zero(), Vec3::UnitY(), 0.5 };
+        plane.compliance = 0.1;
+        const std::vector<PlaneCollider> planes { plane };
+        std::vector<ContactPair> pairs;
+        MatX3 free(m, 3), start(m, 3);
+        for (Index i = 0; i < m; ++i) {
+            pairs.push_back(ContactPair { static_cast<int>(i), 0 });
+            const double x = 0.1 * static_cast<double>(i);
+            start.row(i) << x, 0.0, 0.0;
+            free.row(i) << x + 0.00004 * static_cast<double>(i * i), -0.01 - 0.002 * std::cos(x),
+                0.0;
+        }
+        ContactSettings settings;
+        settings.max_sweeps = 100000;
+        settings.tolerance = 1e-13;
+        settings.subspace_every = 0;
+        MatX3 plain_forces = MatX3::Zero(m, 3), plain_positions(m, 3);
+        const ContactSolveResult plain = solve_dense(
+            coupling, planes, pairs, free, start, plain_forces, plain_positions, settings);
+        settings.subspace_every = 4;
+        MatX3 forces = MatX3::Zero(m, 3), positions(m, 3);
+        const ContactSolveResult stepped
+            = solve_dense(coupling, planes, pairs, free, start, forces, positions, settings);
+        ASSERT_LE(plain.last_change, settings.tolerance);
+        ASSERT_LE(stepped.last_change, settings.tolerance);
+        const double scale = plain_forces.cwiseAbs().maxCoeff();
+        ASSERT_GT(scale, 0.0);
+        EXPECT_LT((forces - plain_forces).cwiseAbs().maxCoeff(), 1e-9 * scale);
+        EXPECT_LT(stepped.sweeps * 4, plain.sweeps)
+            << stepped.sweeps << " against " << plain.sweeps;
+        int sticking = 0;
+        int slipping = 0;
+        int clear = 0;
+        for (Index i = 0; i < m; ++i) {
+            const Vec3 f = forces.row(i).transpose();
+            const double eps = plane.compliance * coupling(i, i);
+            const Vec3 at = positions.row(i).transpose() + eps * f; // where the conditions hold
+            const double f_n = f.y();
+            const double f_t = std::hypot(f.x(), f.z());
+            EXPECT_GE(f_n, 0.0) << i;
+            if (f_n == 0.0) { // clear of the plane, no force
+                EXPECT_GE(at.y(), 0.0) << i;
+                EXPECT_EQ(f.squaredNorm(), 0.0) << i;
+                ++clear;
+                continue;
+            }
+            EXPECT_NEAR(at.y(), 0.0, 1e-10) << i; // pressed: on the plane
+            EXPECT_LE(f_t, 0.5 * f_n * (1.0 + 1e-9)) << i;
+            const double moved = std::hypot(at.x() - start(i, 0), at.z() - start(i, 2));
+            if (f_t < 0.5 * f_n * (1.0 - 1e-6)) {
+                ++sticking;
+                EXPECT_LT(moved, 1e-10) << i; // it sticks where it started
+            } else {
+                ++slipping;
+                EXPECT_GT(moved, 1e-10) << i; // it slides, against its force
+                EXPECT_LT(f.x() * (at.x() - start(i, 0)) + f.z() * (at.z() - start(i, 2)), 0.0)
+                    << i;
+            }
+        }
+        EXPECT_GT(sticking, 0);
+        EXPECT_GT(slipping, 0);
+        EXPECT_LT(clear, m / 4); // most are pressed (2 of the 16 lift off)
+    }
+
     TEST(PlaneContact, CappedSolveWithoutOutsidePositionsKeepsItsForces)
     {
         // The tilted bar, its sweeps cut to 1 so that they run out: without the last
