@@ -475,8 +475,9 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
                 ++sweep;
                 break;
             }
+            // Not after the last sweep: a step's forces are left to the sweeps to correct.
             if (settings.subspace_every > 0 && since % settings.subspace_every == 0
-                && !scratch.through_bodies)
+                && !scratch.through_bodies && sweep + 1 < settings.max_sweeps)
                 solve.subspace(scratch, settings.subspace_limit);
         }
         for (Index k = 0; k < size; ++k) {
