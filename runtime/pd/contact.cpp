@@ -190,10 +190,10 @@ namespace {
         /// conditions as equalities, every other force held: x_c + eps_c f_c at its target in
         /// all three directions for one that sticks (S), along its normal only for the others
         /// (L, their tangential force held, their change lambda_c n_c). The step is cut short
-        /// where a force would leave its cone (a sticking one) or its normal force would change
-        /// sign (the others), so every force stays feasible and the step lowers the solve's
-        /// quadratic; the sweeps that follow correct what the held forces and a wrong split
-        /// leave.
+        /// where a sticking force would leave its cone or another's normal force would change
+        /// sign (a slipping contact whose normal force falls is brought back onto its friction
+        /// disk by the next sweep); the sweeps that follow correct what the held forces and a
+        /// wrong split leave.
         void subspace(ContactScratch& scratch, int limit)
         {
             const Index q = split_pushing(scratch);
