@@ -257,7 +257,6 @@ void ContactStage::begin_step(
             : std::max(m_settings.subspace_every, settings.subspace_every);
         first_solver = false;
     }
-
     for (std::size_t b = 0; b < bodies.size(); ++b)
         if (bodies[b].solver != nullptr && !bodies[b].solver->options().planes.empty())
             add_ground_contacts(static_cast<int>(b), bodies[b]);
