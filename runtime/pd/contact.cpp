@@ -80,11 +80,18 @@ namespace {
         Eigen::Ref<MatX3>& forces;
         Eigen::Ref<MatX3>& positions;
 
+        /// Contact c's compliance eps (its conditions hold at x + eps f).
+        double compliance_of(Index c) const
+        {
+            const PlaneCollider& plane = planes[pairs[c].plane];
+            return std::max(plane.compliance * diagonal(c), plane.compliance_floor);
+        }
+
         /// Contact c's gap, at x + eps (f - preload n) with compliance.
         double gap_of(Index c) const
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
-            const double eps = std::max(plane.compliance * diagonal(c), plane.compliance_floor);
+            const double eps = compliance_of(c);
             return plane.normal.dot(
                        positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point)
                 - eps * plane.preload;
@@ -108,7 +115,7 @@ namespace {
                 return 0.0; // a node the global step cannot move (cannot happen for SPD)
             // With compliance the conditions hold at x + eps f, which moves by (D_cc + eps) per
             // unit force.
-            const double eps = std::max(plane.compliance * coupling_cc, plane.compliance_floor);
+            const double eps = compliance_of(c);
             const double w = coupling_cc + eps;
             const Vec3 n = plane.normal;
             const Index kk = static_cast<Index>(k);
@@ -164,13 +171,6 @@ namespace {
             return coupling_cc * delta.norm();
         }
 
-        /// Contact c's compliance eps (its conditions hold at x + eps f).
-        double compliance_of(Index c) const
-        {
-            const PlaneCollider& plane = planes[pairs[c].plane];
-            return std::max(plane.compliance * diagonal(c), plane.compliance_floor);
-        }
-
         /// Where contact c's x + eps f must be for it to stick: on its plane (at the preload's
         /// offset), tangentially where it started the step; minus where it is.
         Vec3 residual(Index c, Index k, const ContactScratch& scratch) const
@@ -180,8 +180,8 @@ namespace {
             const Vec3& n = plane.normal;
             const Vec3 start = start_positions.row(c).transpose();
             const Vec3 target = start + (n.dot(plane.point - start) + eps * plane.preload) * n;
-            Vec3 x = scratch.working_positions.row(k).transpose();
-            return target - x - eps * forces.row(c).transpose();
+            return target - scratch.working_positions.row(k).transpose()
+                - eps * forces.row(c).transpose();
         }
 
         /// A subspace step (docs/method.md, "Subspace steps"): with the working contacts that
