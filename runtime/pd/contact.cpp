@@ -140,9 +140,13 @@ namespace {
             u -= n.dot(u) * n;
             Vec3 f_t_new = f_t - u / w;
             const double limit = plane.friction * f_n_new;
-            const double norm_t = f_t_new.norm();
-            if (norm_t > limit)
-                f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+            // The root only where the force may slip: well inside the disk (a margin for the
+            // rounding of the squares) the test below cannot pass.
+            if (!(f_t_new.squaredNorm() < (1.0 - 1e-12) * (limit * limit))) {
+                const double norm_t = f_t_new.norm();
+                if (norm_t > limit)
+                    f_t_new *= (norm_t > 0.0 ? limit / norm_t : 0.0);
+            }
 
             const Vec3 delta = (f_n_new - f_n) * n + (f_t_new - f_t);
             if (delta.squaredNorm() == 0.0)
