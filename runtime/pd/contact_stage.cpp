@@ -65,6 +65,19 @@ double ContactStage::self_compliance_floor(const Record& record) const
     return floor;
 }
 
+// Keys are surface vertices (and edges after them), which may exceed the nodes the table starts
+// with; it grows by doubling, so that the keys of one step's contacts, met in increasing order,
+// do not copy it once per key (the table's rows beyond the keys met stay zero: the same warm
+// starts).
+void ContactStage::reach_key(MatX3& table, Index key)
+{
+    if (key < table.rows())
+        return;
+    const Index rows = table.rows();
+    table.conservativeResize(std::max(key + 1, 2 * rows), 3);
+    table.bottomRows(table.rows() - rows).setZero();
+}
+
 void ContactStage::add_side(Record& record, int body, int first, int count)
 {
     Side& side = record.sides[static_cast<std::size_t>(record.num_sides++)];
@@ -169,12 +182,7 @@ void ContactStage::add_body_contacts(
             const int key = contacts.keys[static_cast<std::size_t>(c)];
             record.warm_body = first.body;
             record.warm_node = key >= 0 ? key : first.node;
-            MatX3& previous = m_data[static_cast<std::size_t>(first.body)].previous_pair;
-            if (record.warm_node >= previous.rows()) {
-                const Index rows = previous.rows();
-                previous.conservativeResize(record.warm_node + 1, 3);
-                previous.bottomRows(previous.rows() - rows).setZero();
-            }
+            reach_key(m_data[static_cast<std::size_t>(first.body)].previous_pair, record.warm_node);
         }
         // The start of the relative point, less the constant bodies' motion.
         Vec3& start = record.start;

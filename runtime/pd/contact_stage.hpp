@@ -256,6 +256,8 @@ private:
     /// The compliance floor of a self contact: sum over its terms of w^2 / A_ii on its body, 0
     /// on a full-space body.
     double self_compliance_floor(const Record& record) const;
+    /// Grows a table of last forces by key (BodyData::previous_pair) to hold `key`.
+    static void reach_key(MatX3& table, Index key);
     void prepare_responses(const std::vector<ContactBodyState>& bodies);
     /// Each contact between bodies' preload (from contact `first_body_contact` on), from the
     /// warm start's forces.

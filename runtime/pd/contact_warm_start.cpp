@@ -46,11 +46,8 @@ void ContactStage::set_warm_start(int b, PdSolver& solver, const ContactWarmStar
             throw_error("contact warm start: node {} and plane {} out of range ({} nodes, {} "
                         "planes)",
                 node, plane, nodes, planes);
-        if (plane < 0 && node >= data.previous_pair.rows()) {
-            const Index rows = data.previous_pair.rows();
-            data.previous_pair.conservativeResize(node + 1, 3);
-            data.previous_pair.bottomRows(data.previous_pair.rows() - rows).setZero();
-        }
+        if (plane < 0)
+            reach_key(data.previous_pair, node);
         if (plane >= 0)
             data.previous_ground.row(node * planes + plane)
                 = warm.forces.row(static_cast<Index>(u));
