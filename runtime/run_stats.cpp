@@ -53,6 +53,7 @@ namespace {
             = std::max(into.intersecting_triangles, step.intersecting_triangles);
         into.contacts = std::max(into.contacts, step.contacts);
         into.edge_contacts = std::max(into.edge_contacts, step.edge_contacts);
+        into.deep_vertices = std::max(into.deep_vertices, step.deep_vertices);
         into.max_penetration = std::max(into.max_penetration, step.max_penetration);
         into.add_seconds(step);
     }
@@ -75,7 +76,8 @@ namespace {
             { "triangle_tests", r.triangle_tests }, { "node_tests", r.node_tests },
             { "edge_tests", r.edge_tests }, { "intersecting_triangles", r.intersecting_triangles },
             { "contacts", r.contacts }, { "edge_contacts", r.edge_contacts },
-            { "max_penetration", r.max_penetration }, { "seconds", collision_phase_json(r, 1.0) } };
+            { "deep_vertices", r.deep_vertices }, { "max_penetration", r.max_penetration },
+            { "seconds", collision_phase_json(r, 1.0) } };
     }
 
     /// A `collision_check` entry (a frame's or the run's).

@@ -435,11 +435,23 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
     m_report.intersecting_triangles = static_cast<int>(m_intersecting.size());
 }
 
-void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
+void CollisionWorld::respond(const std::vector<CollisionBodyState>& states)
 {
     // One candidate per surface vertex (the nearest triangle), sorted by (body, vertex): the
     // vertex (its embedding's nodes and weights) against the triangle's closest point.
     for (const NodeCandidate& hit : m_narrow.candidates()) {
+        m_report.max_penetration = std::max(m_report.max_penetration, -hit.plane);
+        // A vertex more than the margin behind its nearest face of another deformable body has
+        // passed through that face: its normal is no way out, and pushing along it squeezes the
+        // part the vertex is in (docs/method.md, "Deep vertices"). A constant body's faces
+        // cannot give way, so its contacts stay; within one body the narrow phase keeps such a
+        // vertex out already.
+        if (hit.body != hit.other_body
+            && !states[static_cast<std::size_t>(hit.other_body)].is_static
+            && hit.distance < -m_margin) {
+            ++m_report.deep_vertices;
+            continue;
+        }
         const Body& other = m_bodies[static_cast<std::size_t>(hit.other_body)];
         const Eigen::Vector3i face = other.model->surface().faces().row(hit.face).transpose();
         add_vertex_terms(hit.body, hit.node, 1.0);
@@ -453,7 +465,6 @@ void CollisionWorld::respond(const std::vector<CollisionBodyState>& /*states*/)
                 m_contacts.face_terms.push_back(ContactTerm {
                     hit.other_body, surface.nodes()(face(k), c), surface.weights()(face(k), c) });
         close_contact(hit.normal, hit.node, hit.body == hit.other_body, face_first);
-        m_report.max_penetration = std::max(m_report.max_penetration, -hit.plane);
     }
     // One per surface edge that has one (the nearest edge crossing it), sorted by (body, edge):
     // the edge's closest point against the other edge's, keyed after the body's vertices.

@@ -82,6 +82,9 @@ struct CollisionReport {
     int intersecting_triangles = 0; ///< distinct triangle pairs that intersect
     int contacts = 0; ///< contacts handed to the solvers (vertex-face and edge-edge)
     int edge_contacts = 0; ///< of which edge-edge
+    /// Candidates left out: surface vertices more than the margin behind their nearest face of
+    /// another body that is not constant (CollisionWorld::respond).
+    int deep_vertices = 0;
     /// The deepest candidate node behind its triangle's plane at detection (m): the largest gap
     /// a contact starts from (NodeCandidate::plane). The exact depth inside the other body is
     /// `--check-collisions`' (runtime/measures/collision_check.hpp).
@@ -182,6 +185,10 @@ public:
     const MatX3& world_surface(Index b) const { return m_bodies[b].surface; }
     const MatX3i& faces(Index b) const { return m_bodies[b].model->surface().faces(); }
     const CollisionSettings& settings() const { return m_settings; }
+    /// The narrow phase's vertex candidates of the last detect() (one per surface vertex, its
+    /// nearest face), deep vertices included, and the margin it ran with (absolute).
+    const std::vector<NodeCandidate>& node_candidates() const { return m_narrow.candidates(); }
+    double margin() const { return m_margin; }
     /// Body b's enlarged primitives at the last detect(), in its solver's coordinates.
     const MedialBounds& bounds(Index b) const { return m_bodies[b].bounds; }
     Index num_bodies() const { return static_cast<Index>(m_bodies.size()); }

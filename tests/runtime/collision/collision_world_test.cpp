@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <random>
+#include <set>
 #include <string>
 
 #include <tbb/task_arena.h>
@@ -194,6 +195,31 @@ namespace {
         world.detect(scene.states);
         EXPECT_EQ(world.last_report().primitive_pairs, 0);
         EXPECT_EQ(world.last_report().contacts, 0);
+    }
+
+    // A surface vertex more than the margin behind its nearest face of another body has passed
+    // through that face and gets no contact (docs/method.md, "Deep vertices"); every other
+    // candidate gets its contact, keyed by its vertex. The two creatures overlap deeply here.
+    TEST(CollisionWorld, VerticesDeeperThanTheMarginBehindAnotherBodyGetNoContact)
+    {
+        CollisionWorld world = make_world({});
+        TwoCreatures scene(0.3);
+        const BodyContacts& contacts = world.detect(scene.states);
+        std::set<std::pair<int, int>> keyed;
+        for (Index c = 0; c < contacts.size(); ++c)
+            keyed.insert({ contacts.first_body(c), contacts.keys[static_cast<std::size_t>(c)] });
+        int deep = 0;
+        int shallow = 0;
+        for (const NodeCandidate& hit : world.node_candidates()) {
+            const bool is_deep = hit.body != hit.other_body && hit.distance < -world.margin();
+            deep += is_deep ? 1 : 0;
+            shallow += is_deep ? 0 : 1;
+            EXPECT_EQ(keyed.count({ hit.body, hit.node }), is_deep ? 0U : 1U)
+                << "body " << hit.body << " vertex " << hit.node << " at " << hit.distance;
+        }
+        EXPECT_GT(deep, 0) << "the scene no longer has deep vertices";
+        EXPECT_GT(shallow, 0);
+        EXPECT_EQ(world.last_report().deep_vertices, deep);
     }
 
     /// Whether every surface vertex of body b lies in its primitive's enlarged sphere at its
