@@ -751,10 +751,10 @@ namespace {
     }
 
     // Deep vertices (docs/method.md, "Deep vertices"): a surface vertex more than the collision
-    // margin behind its nearest face of another body gets no contact. Hyper-reduced
-    // creatures_collide crushed without that rule (strain 26.0, a limb ending inside the other
-    // creature's head, 93 mm deep; 3 of 10 runs with the friction varied); with it its largest
-    // strain is 3.8 at most over those ten runs, and the energy never rises above its start.
+    // margin behind its nearest face of another deformable body gets no contact. Hyper-reduced
+    // creatures_collide crushed without that rule (strain 26.0 and a vertex 93 mm inside the
+    // other creature; 3 of 10 runs with the friction varied); with it the largest strain of those
+    // ten runs is 3.9, and the energy never rises above its start.
     class DeepVerticesTest : public SampleSceneTest { };
 
     TEST_F(DeepVerticesTest, HyperReducedLandingDoesNotCrush)

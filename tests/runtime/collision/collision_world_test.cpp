@@ -197,9 +197,10 @@ namespace {
         EXPECT_EQ(world.last_report().contacts, 0);
     }
 
-    // A surface vertex more than the margin behind its nearest face of another body has passed
-    // through that face and gets no contact (docs/method.md, "Deep vertices"); every other
-    // candidate gets its contact, keyed by its vertex. The two creatures overlap deeply here.
+    // A surface vertex more than the margin behind its nearest face of another deformable body
+    // has passed through that face and gets no contact (docs/method.md, "Deep vertices"); every
+    // other candidate gets its contact, keyed by its vertex. The two creatures (both dynamic)
+    // overlap deeply here.
     TEST(CollisionWorld, VerticesDeeperThanTheMarginBehindAnotherBodyGetNoContact)
     {
         CollisionWorld world = make_world({});
