@@ -76,7 +76,7 @@ Acceleration parse_acceleration(const std::string& name);
 /// Which bodies end a step with the angular momentum their external impulses give them
 /// (runtime/pd/angular_momentum.hpp; docs/method.md, "Angular momentum"): none (integrator: what
 /// implicit Euler and the iterations give), those without pins or contact candidates in the step
-/// (free), or also those that only other stepped bodies push (keep).
+/// (free), or also those whose contact island the world does not hold (keep, the default).
 enum class AngularMomentum { integrator, free, keep };
 /// Where the semi-reduced step runs: the CPU, or a CUDA GPU (runtime/gpu/device_step.hpp;
 /// docs/gpu.md). The full-space and hyper-reduced solvers run on the CPU only.
@@ -120,7 +120,7 @@ struct SolverOptions {
     /// only.
     double tolerance = 0.0;
     /// Which bodies keep angular momentum (AngularMomentum); the CPU path only.
-    AngularMomentum angular_momentum = AngularMomentum::free;
+    AngularMomentum angular_momentum = AngularMomentum::keep;
 };
 
 /// What the last step did.

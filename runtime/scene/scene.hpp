@@ -52,7 +52,7 @@ struct SolverSettings {
     AccelerationMode acceleration = AccelerationMode::none; ///< "none" or "anderson"
     DeviceMode device = DeviceMode::cpu; ///< "cpu" or "cuda" (the semi-reduced step on a GPU)
     /// "free", "keep" or "integrator" (SolverOptions::angular_momentum)
-    AngularMomentumMode angular_momentum = AngularMomentumMode::free;
+    AngularMomentumMode angular_momentum = AngularMomentumMode::keep;
     int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"

@@ -239,7 +239,7 @@ namespace {
                          "with -DMAT_CUDA=ON; --device overrides; docs/gpu.md)"),
             enum_key(S::solver, "angular_momentum", &SolverSettings::angular_momentum,
                 { "free", "keep", "integrator" })
-                .set_default("free")
+                .set_default("keep")
                 .set_doc("free: an object without pins or contacts in a step ends it with its "
                          "start angular momentum (its internal forces exert no net moment; "
                          "implicit Euler alone loses a few percent per second under spin and "
