@@ -16,10 +16,9 @@ namespace {
     /// nothing.
     std::unique_ptr<CollisionWorld> make_collision_world(const Scene& scene)
     {
-        const bool self = scene.solver.self_collision;
-        if (scene.solver.collision != CollisionMode::off && (scene.objects.size() > 1 || self)) {
+        if (scene_collides(scene)) {
             CollisionSettings settings;
-            settings.self = self;
+            settings.self = scene.solver.self_collision;
             settings.bounds = scene.solver.collision == CollisionMode::lazy ? RadiusUpdate::lazy
                                                                             : RadiusUpdate::bound;
             settings.margin = scene.solver.collision_margin;
@@ -189,9 +188,6 @@ const BodyContacts& Simulation::detect_contacts()
         states[b].velocities = &body.state.velocities;
         if (!states[b].is_static)
             states[b].motion = motion_bound(body);
-        // Not with a hyper-reduced body (its local stage does not read the iterate):
-        // creatures_collide crushed with it (docs/method.md, "Speculative contacts").
-        states[b].may_stop = body.is_static || body.solver->local_stage().reads_iterate();
     }
     m_collision->update_bounds(states);
     for (Body& body : m_bodies)

@@ -418,7 +418,6 @@ void CollisionWorld::narrow_phase(const std::vector<CollisionBodyState>& states,
         view.is_static = states[b].is_static;
         view.motion = states[b].motion;
         view.velocities = body.surface_velocity.rows() > 0 ? &body.surface_velocity : nullptr;
-        view.may_stop = states[b].may_stop;
     }
     m_pair_refs.clear();
     for (const auto& [i, j] : m_colliding) {

@@ -126,9 +126,6 @@ struct CollisionBodyState {
     /// n x 3 node velocities in the solver's coordinates (null: at rest), for the approach
     /// speed of speculative contacts (set_lookahead).
     const MatX3* velocities = nullptr;
-    /// Its speculative contacts allow for either body of a pair stopping during the step
-    /// (NarrowPhaseBody::may_stop).
-    bool may_stop = true;
 };
 
 class CollisionWorld {

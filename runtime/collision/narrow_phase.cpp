@@ -442,7 +442,7 @@ namespace {
         double near = 0.0; ///< the margin, plus the extra against a body that does not fall
         double reach = 0.0; ///< near, plus the node's and the other body's motion in the step
         bool same_body = false; ///< the triangles are of the node's own body
-        bool stopping = true; ///< either body may stop (NarrowPhaseBody::may_stop)
+        bool stopping = true; ///< either body may stop (two bodies; not within one)
     };
 
     /// A triangle that takes the node: its closest point, signed distance and unit normal.
@@ -745,7 +745,7 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
         query.same_body = bf == bn;
         // Within one body, the approach at the start velocities only: a part does not stop
         // while another goes on as two bodies do (docs/method.md, "Speculative contacts").
-        query.stopping = own.may_stop && other.may_stop && !query.same_body;
+        query.stopping = !query.same_body;
         const BodyData& faces = m_bodies[static_cast<std::size_t>(bf)];
         // Only the faces that the node's velocity relative to the body's active faces (their
         // mean velocity, plus the spread about it) can reach: see Reach.

@@ -73,10 +73,6 @@ struct NarrowPhaseBody {
     /// #Vs x 3 surface vertex positions at rest: the sharp edges (edge contacts) are the rest
     /// shape's (null: the surface's at the body's first run).
     const MatX3* rest_surface = nullptr;
-    /// Whether its speculative contacts allow for either body of a pair stopping during the
-    /// step (stopping_approach; a pair takes it only if both bodies do); false: the approach at
-    /// the start velocities only (docs/method.md, "Speculative contacts": hyper-reduced bodies).
-    bool may_stop = true;
 };
 
 /// A colliding primitive pair as the narrow phase reads it.

@@ -141,7 +141,7 @@ namespace {
         double reach = 0.0; ///< near, plus the edge's and the other body's motion in the step
         double hold = 0.0; ///< max(near, margin): taken whatever the motion
         double lookahead = 0.0;
-        bool stopping = true; ///< either body may stop (NarrowPhaseBody::may_stop)
+        bool stopping = true; ///< either body may stop (two bodies; not within one)
     };
 
     /// The farthest from the query edge that an edge (or every edge of a set) moving as (mean
@@ -373,7 +373,7 @@ bool NarrowPhase::nearest_edge(const std::vector<NarrowPhaseBody>& bodies, doubl
         query.reach = query.near + lookahead * query.speed + other.motion;
         query.hold = std::max(query.near, margin);
         // Within one body, the approach at the start velocities only (as a vertex's).
-        query.stopping = own.may_stop && other.may_stop && bf != be;
+        query.stopping = bf != be;
         // Each sharp partner edge whose box is within the reach of the two edges' motion, then
         // the exact rule.
         const auto test_edge = [&](const BodyData::ActiveEdge& edge) {

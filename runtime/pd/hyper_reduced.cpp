@@ -76,6 +76,11 @@ namespace {
 
 } // namespace
 
+Index automatic_samples(Index columns, bool contacts)
+{
+    return std::max<Index>((contacts ? 5 : 4) * columns, 256);
+}
+
 SampledLocalStage::SampledLocalStage(
     const Model& model, bool exact_projections, Index samples, ReducedGlobalStep& reduced)
     : m_reduced(&reduced)
@@ -86,7 +91,7 @@ SampledLocalStage::SampledLocalStage(
     if (samples < 0)
         throw_error("hyper-reduced: sample count {} must be non-negative", samples);
     if (samples == 0)
-        samples = std::max<Index>(4 * k, 256);
+        samples = automatic_samples(k, false);
     m_samples = farthest_point_tets(model, samples);
     for (const int e : m_samples)
         for (int c = 0; c < 4; ++c)

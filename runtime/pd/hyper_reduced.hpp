@@ -23,8 +23,15 @@
 // semi-reduced; 4k gives 0.375, 8k 0.32.
 // On the 50k-tet creature (k = 580) spinning in free fall, 20 steps: k samples put the surface
 // 1.9% of the diagonal (max) off full-space PD, 2k samples 0.011%, 4k 0.0032%, semi-reduced
-// 0.0027%. The full positions are reconstructed only after the last iteration; the iterations read
-// the samples' nodes from q.
+// 0.0027%.
+// A body in contact with others or itself takes 5k by default (automatic_samples, chosen for the
+// scene's bodies in runtime/scene/scene_bodies.cpp): a contact pushes at a few surface nodes,
+// and tets there that the fit does not sample are strained by it. Forty hyper-reduced runs of
+// creatures_collide (k = 292, 2037 tets) went from a median deepest penetration of 14.3 mm and
+// strain 3.75 (largest 30.1 mm, 9.18) at 4k to 1.42 mm and 2.08 (3.03 mm, 2.76) at 5k with the
+// speculative stop (docs/method.md, "Hyper-reduced contact").
+// The full positions are reconstructed only after the last iteration; the iterations read the
+// samples' nodes from q.
 
 #include <memory>
 #include <vector>
@@ -34,6 +41,11 @@
 
 namespace mat {
 
+/// The automatic sample count of a model with `columns` reduced coordinates per axis: 4k, or 5k
+/// for a body that takes contacts from other bodies or itself (`contacts`), at least 256 (see the
+/// file comment).
+Index automatic_samples(Index columns, bool contacts);
+
 /// `count` tets by farthest-point sampling of their centroids, from tet 0 (ties: the lowest
 /// index), returned in ascending order. `count` is clamped to [1, #tets].
 std::vector<int> farthest_point_tets(const Model& model, Index count);
@@ -41,9 +53,8 @@ std::vector<int> farthest_point_tets(const Model& model, Index count);
 /// The local step over a sample of tets, fitted to the reduced global step's right-hand side.
 class SampledLocalStage final : public LocalStage {
 public:
-    /// `samples`: tets in the local step; 0 = automatic (four times the number of reduced
-    /// coordinates per axis, 4k, at least 256), clamped to the number of tets. `reduced` is the
-    /// global step this stage solves with (it must outlive the stage).
+    /// `samples`: tets in the local step; 0 = automatic_samples(k, false), clamped to the number
+    /// of tets. `reduced` is the global step this stage solves with (it must outlive the stage).
     SampledLocalStage(
         const Model& model, bool exact_projections, Index samples, ReducedGlobalStep& reduced);
     ~SampledLocalStage() override;

@@ -447,6 +447,12 @@ namespace {
 
 } // namespace
 
+bool scene_collides(const Scene& scene)
+{
+    return scene.solver.collision != CollisionMode::off
+        && (scene.objects.size() > 1 || scene.solver.self_collision);
+}
+
 const char* motion_name(ObjectMotion motion)
 {
     switch (motion) {

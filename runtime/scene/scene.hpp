@@ -174,6 +174,10 @@ struct SceneOptions {
     bool check_files = true;
 };
 
+/// Whether the scene's bodies take contacts from one another or from themselves: collision is
+/// not off, and there are two or more objects or self collision is on.
+bool scene_collides(const Scene& scene);
+
 /// Reads and checks the scene at `path`. Throws mat::Error with one line naming the file and,
 /// for a JSON syntax error, the line and column, else the key path (e.g.
 /// `objects[1].material.poisson_ratio`) and the problem: unknown key, wrong type, value out of

@@ -5,6 +5,7 @@
 #include "common/error.hpp"
 #include "common/log.hpp"
 #include "formats/bake_io.hpp"
+#include "runtime/pd/hyper_reduced.hpp"
 #include "runtime/scene/pin_motion.hpp"
 
 namespace mat {
@@ -131,7 +132,12 @@ namespace {
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(
                 PlaneCollider { collider.point, collider.normal, collider.friction });
-        return make_solver(solver_kind, model, options, scene.solver.hyper_samples);
+        // A hyper-reduced body that takes contacts from other bodies samples more tets by
+        // default (runtime/pd/hyper_reduced.hpp).
+        Index samples = scene.solver.hyper_samples;
+        if (samples == 0 && solver_kind == SolverKind::hyper_reduced && scene_collides(scene))
+            samples = automatic_samples(model.num_columns(), true);
+        return make_solver(solver_kind, model, options, samples);
     }
 
     /// Initial state: placed rest positions, v + w x (x - centre of mass); pinned nodes, static

@@ -332,8 +332,10 @@ namespace {
                 .set_default(0)
                 .at_least(0)
                 .set_doc("tets sampled by the hyper-reduced solver (--solver hyper), 0 for four "
-                         "times as many as the model has reduced coordinates per axis (at least "
-                         "256); more is slower and closer to semi-reduced (equal with every tet)"),
+                         "times as many as the model has reduced coordinates per axis, five times "
+                         "where the objects collide (at least 256; docs/method.md, \"Hyper-reduced "
+                         "contact\"); more is slower and closer to semi-reduced (equal with every "
+                         "tet)"),
             value_key(S::solver, "reduced_pin_stiffness", T::number,
                 &SolverSettings::reduced_pin_stiffness)
                 .set_default(1.0)
