@@ -252,6 +252,8 @@ void ContactStage::begin_step(
         if (bodies[b].solver == nullptr)
             continue;
         init_body(static_cast<int>(b), *bodies[b].solver);
+        if (at_iterate)
+            m_data[b].detected = bodies[b].solver->step_positions();
         const ContactSettings& settings = bodies[b].solver->options().contact;
         m_settings.max_sweeps = first_solver ? settings.max_sweeps
                                              : std::max(m_settings.max_sweeps, settings.max_sweeps);
@@ -589,9 +591,10 @@ void ContactStage::end_step()
                 solver.report().world_contact = true;
             // Its moment at the start of the step, about the origin
             // (runtime/pd/angular_momentum.hpp), where its two points are a closest pair along
-            // it; for contacts found at an iterate, at the step's end.
-            const MatX3& begin
-                = m_at_iterate ? solver.step_positions() : solver.step_start_positions();
+            // it (so that the two sides' moments of a normal force cancel); for contacts found
+            // at an iterate, at that iterate.
+            const MatX3& begin = m_at_iterate ? m_data[static_cast<std::size_t>(side.body)].detected
+                                              : solver.step_start_positions();
             for (int k = side.first; k < side.first + side.count; ++k) {
                 const Index node = m_term_node[static_cast<std::size_t>(k)];
                 solver.report().contact_moment += begin.row(node).transpose().cross(

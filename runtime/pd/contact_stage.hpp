@@ -131,7 +131,7 @@ public:
     /// step's force of the same ground pair, or of a contact at the same first node).
     /// `at_iterate`: the contacts were found at an iterate during the step (the two points of a
     /// contact are then a closest pair there, not at the step start: their impulses' moments are
-    /// taken at the step's end, see end_step()); the step's sweeps keep counting.
+    /// taken at that iterate, see end_step()); the step's sweeps keep counting.
     void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts,
         bool at_iterate = false);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
@@ -216,6 +216,9 @@ private:
         /// from them, and its sides have no direction.
         MatX3 displaced;
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
+        /// The node positions at the iterate the step's contacts were found at (begin_step's
+        /// `at_iterate`): where their impulses' moments are taken (end_step()).
+        MatX3 detected;
         /// The displacement is that of the current forces over all rows (a nodal body's,
         /// from the end of the last solve): the next displace() need not sum it again.
         bool summed = false;

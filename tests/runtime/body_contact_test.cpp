@@ -38,6 +38,7 @@ namespace {
         double mass_ratio; ///< mover density / target density
         double offset; ///< the mover's offset across the line of impact (m)
         double tolerance = 0.0; ///< time.tolerance (then at most 100 iterations a step)
+        bool detect_in_step = false; ///< solver.detect_in_step "on"
     };
 
     class ContactMomentumTest : public test::ScratchDirTest,
@@ -50,7 +51,7 @@ namespace {
         return fmt::format(R"({{
   "time": {{ "dt": 0.0166666667, "frames": 40, "iterations": {}, "tolerance": {} }},
   "gravity": [0, 0, 0],
-  "solver": {{ "collision": "bounded", "collision_friction": 0.0 }},
+  "solver": {{ "collision": "bounded", "collision_friction": 0.0, "detect_in_step": "{}" }},
   "objects": [
     {{ "name": "mover", "bake": "capsule.h5", "position": [-0.4, {}, 0], "velocity": [1.5, 0, 0],
       "material": {{ "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": {} }} }},
@@ -58,7 +59,8 @@ namespace {
       "material": {{ "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000 }} }}
   ]
 }})",
-            p.tolerance > 0.0 ? 100 : 10, p.tolerance, p.offset, 1000.0 * p.mass_ratio);
+            p.tolerance > 0.0 ? 100 : 10, p.tolerance, p.detect_in_step ? "on" : "off", p.offset,
+            1000.0 * p.mass_ratio);
     }
 
     struct Momenta {
@@ -164,6 +166,13 @@ namespace {
         for (const SolverKind solver :
             { SolverKind::semi_reduced, SolverKind::full, SolverKind::hyper_reduced })
             result.push_back({ solver, 10.0, 0.06, 1e-5 });
+        // Contacts found again during the step (a hyper-reduced body never runs the key): the
+        // impulses' moments of those found at the iterate are taken there, where their two
+        // points are a closest pair (taken at the step's end instead, the pair's angular
+        // momentum changed by 2.4-7.2% in these cases; docs/method.md).
+        for (const SolverKind solver : { SolverKind::semi_reduced, SolverKind::full })
+            for (const double ratio : { 1.0, 10.0, 100.0 })
+                result.push_back({ solver, ratio, 0.06, 0.0, true });
         return result;
     }
 
@@ -177,7 +186,8 @@ namespace {
                 + (p.offset != 0.0
                         ? "_off_centre_" + std::to_string(static_cast<int>(p.offset * 100))
                         : "")
-                + (p.tolerance > 0.0 ? "_tolerance" : "");
+                + (p.tolerance > 0.0 ? "_tolerance" : "")
+                + (p.detect_in_step ? "_detect_in_step" : "");
         });
 
     class ContactIslandTest : public test::ScratchDirTest { };
