@@ -24,6 +24,7 @@ namespace {
             settings.margin = scene.solver.collision_margin;
             settings.friction = scene.solver.collision_friction;
             settings.edges = scene.solver.edge_contacts;
+            settings.skin = scene.solver.contact_skin;
             return std::make_unique<CollisionWorld>(settings);
         }
         if (scene.objects.size() > 1)

@@ -67,6 +67,9 @@ struct CollisionSettings {
     double friction = 0.3; ///< Coulomb coefficient between bodies
     /// Edge-edge contacts besides the vertex-face ones (docs/method.md, "Edge contacts").
     bool edges = false;
+    /// The gap a contact between two bodies keeps, relative to the margin (PlaneCollider::offset;
+    /// docs/method.md, "Skin"); self contacts keep none.
+    double skin = 0.0;
 };
 
 /// What the last detect() found and how long each phase took.

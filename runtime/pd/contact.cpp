@@ -94,7 +94,7 @@ namespace {
             const double eps = compliance_of(c);
             return plane.normal.dot(
                        positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point)
-                - eps * plane.preload;
+                - eps * plane.preload - plane.offset;
         }
 
         /// Whether contact c pushes or is not clear of its plane.
@@ -125,7 +125,7 @@ namespace {
             x += eps * forces.row(c).transpose();
             const Vec3 f = forces.row(c).transpose();
             // Normal: the force that closes the gap (or none), Signorini.
-            const double gap = n.dot(x - plane.point) - eps * plane.preload;
+            const double gap = n.dot(x - plane.point) - eps * plane.preload - plane.offset;
             // No force and a gap that is not negative: no force again (the friction disk is a
             // point), so nothing changes. Taken before the tangent's divisions and roots: in a
             // large working set many are such contacts (docs/method.md, "W in node space").
@@ -183,7 +183,8 @@ namespace {
             const double eps = compliance_of(c);
             const Vec3& n = plane.normal;
             const Vec3 start = start_positions.row(c).transpose();
-            const Vec3 target = start + (n.dot(plane.point - start) + eps * plane.preload) * n;
+            const Vec3 target
+                = start + (n.dot(plane.point - start) + eps * plane.preload + plane.offset) * n;
             return target - scratch.working_positions.row(k).transpose()
                 - eps * forces.row(c).transpose();
         }

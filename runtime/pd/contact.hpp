@@ -52,6 +52,9 @@ struct PlaneCollider {
     /// and presses alike now rests at its plane, not eps |f| behind it (docs/method.md,
     /// "Compliance").
     double preload = 0.0;
+    /// The gap the conditions keep (m, >= 0): n . (x - point) >= offset. The contact stage
+    /// sets it for contacts between reduced bodies (docs/method.md, "Skin").
+    double offset = 0.0;
 };
 
 /// One candidate contact: a node against a plane.

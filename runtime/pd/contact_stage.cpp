@@ -194,6 +194,12 @@ void ContactStage::add_body_contacts(
                 start += m_term_weight[static_cast<std::size_t>(k)]
                     * at_start.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
         }
+        // The skin only where every stepped body keeps it (SolverOptions::contact_skin).
+        for (int s = 0; s < record.num_sides; ++s)
+            if (!bodies[static_cast<std::size_t>(record.sides[static_cast<std::size_t>(s)].body)]
+                     .solver->options()
+                     .contact_skin)
+                plane.offset = 0.0;
         m_pairs.push_back(
             ContactPair { static_cast<int>(m_records.size()), static_cast<int>(m_planes.size()) });
         m_planes.push_back(plane);

@@ -103,6 +103,10 @@ struct SolverOptions {
     /// every body it pushes has it. Off by default: on, full-space creatures_collide with
     /// angular_momentum "integrator" crushed.
     bool compliance_preload = false;
+    /// A contact between bodies keeps the gap its plane sets (PlaneCollider::offset, the
+    /// collision world's skin) only when every body it pushes has this; otherwise it keeps none
+    /// (docs/method.md, "Skin": full-space bodies crushed with it).
+    bool contact_skin = false;
     /// A contact of a vertex against a face of this body (stepped) takes the face's outward
     /// normal at each iteration's positions, not only at the step's start (docs/method.md,
     /// "Planes that follow the iterate").

@@ -67,6 +67,9 @@ struct SolverSettings {
     /// "on" or "off": subspace steps in the contact solves (ContactSettings::subspace_every)
     bool contact_subspace = false;
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
+    /// The gap contacts between objects keep, relative to the collision margin (reduced
+    /// objects only: SolverOptions::contact_skin)
+    double contact_skin = 0.0;
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed
     /// x its rest bounding-box diagonal per second; 0 = never.

@@ -128,6 +128,9 @@ namespace {
         options.compliance_preload
             = scene.solver.compliance_preload && solver_kind != SolverKind::hyper_reduced;
         options.planes_follow_iterate = scene.solver.planes_follow_iterate;
+        // Full-space bodies keep no skin: with it 2 of 20 creatures_collide runs crushed
+        // (docs/method.md, "Skin").
+        options.contact_skin = solver_kind != SolverKind::full;
         options.contact.subspace_every = scene.solver.contact_subspace ? 4 : 0;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(

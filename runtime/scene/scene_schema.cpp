@@ -311,6 +311,14 @@ namespace {
                 .at_least(0)
                 .set_doc("contact candidate distance between objects, fraction of the largest "
                          "bake's bounding-box diagonal"),
+            value_key(S::solver, "contact_skin", T::number, &SolverSettings::contact_skin)
+                .set_default(0.15)
+                .at_least(0)
+                .at_most(0.5)
+                .set_doc("the gap a contact between objects keeps, fraction of the collision "
+                         "margin: they rest that far apart instead of slightly inside each "
+                         "other, so no triangles stay crossed; full-space objects never use it "
+                         "(docs/method.md, \"Skin\")"),
             value_key(
                 S::solver, "collision_friction", T::number, &SolverSettings::collision_friction)
                 .set_default(0.3)
