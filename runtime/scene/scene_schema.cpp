@@ -317,7 +317,7 @@ namespace {
                 .at_most(0.5)
                 .set_doc("the gap a contact between objects keeps, fraction of the collision "
                          "margin: they rest that far apart instead of slightly inside each "
-                         "other, so no triangles stay crossed; full-space objects never use it "
+                         "other, where triangles stayed crossed; full-space objects never use it "
                          "(docs/method.md, \"Skin\")"),
             value_key(
                 S::solver, "collision_friction", T::number, &SolverSettings::collision_friction)
