@@ -28,8 +28,8 @@
 // scene's bodies in runtime/scene/scene_bodies.cpp): a contact pushes at a few surface nodes,
 // and tets there that the fit does not sample are strained by it. Forty hyper-reduced runs of
 // creatures_collide (k = 292, 2037 tets) went from a median deepest penetration of 14.3 mm and
-// strain 3.75 (largest 30.1 mm, 9.18) at 4k to 1.42 mm and 2.08 (3.03 mm, 2.76) at 5k with the
-// speculative stop (docs/method.md, "Hyper-reduced contact").
+// strain 3.75 (largest 30.1 mm, 9.18) at 4k without the speculative stop to 1.42 mm and 2.08
+// (3.03 mm, 2.76) at 5k with it (docs/method.md, "Hyper-reduced contact").
 // The full positions are reconstructed only after the last iteration; the iterations read the
 // samples' nodes from q.
 
