@@ -87,14 +87,26 @@ namespace {
             return std::max(plane.compliance * diagonal(c), plane.compliance_floor);
         }
 
-        /// Contact c's gap, at x + eps (f - preload n) with compliance.
+        /// The gap at x + eps (f - preload n) (`linear_gap`, the compliance uncapped) with
+        /// the compliance's give along the normal held to the plane's cap: past it, the part
+        /// of the give over the cap is taken back.
+        static double capped_gap(
+            const PlaneCollider& plane, double eps, double f_n, double linear_gap)
+        {
+            const double give = eps * (f_n - plane.preload);
+            return give > plane.compliance_cap ? linear_gap - give + plane.compliance_cap
+                                               : linear_gap;
+        }
+
+        /// Contact c's gap, at x + eps (f - preload n) with compliance (its normal give capped).
         double gap_of(Index c) const
         {
             const PlaneCollider& plane = planes[pairs[c].plane];
             const double eps = compliance_of(c);
-            return plane.normal.dot(
-                       positions.row(c).transpose() + eps * forces.row(c).transpose() - plane.point)
+            const double linear = plane.normal.dot(positions.row(c).transpose()
+                                      + eps * forces.row(c).transpose() - plane.point)
                 - eps * plane.preload - plane.offset;
+            return capped_gap(plane, eps, plane.normal.dot(forces.row(c).transpose()), linear);
         }
 
         /// Whether contact c pushes or is not clear of its plane.
@@ -125,15 +137,22 @@ namespace {
             x += eps * forces.row(c).transpose();
             const Vec3 f = forces.row(c).transpose();
             // Normal: the force that closes the gap (or none), Signorini.
-            const double gap = n.dot(x - plane.point) - eps * plane.preload - plane.offset;
+            const double f_n = n.dot(f);
+            const double linear_gap = n.dot(x - plane.point) - eps * plane.preload - plane.offset;
+            const double gap = capped_gap(plane, eps, f_n, linear_gap);
             // No force and a gap that is not negative: no force again (the friction disk is a
             // point), so nothing changes. Taken before the tangent's divisions and roots: in a
             // large working set many are such contacts (docs/method.md, "W in node space").
             if (gap >= 0.0 && f.x() == 0.0 && f.y() == 0.0 && f.z() == 0.0)
                 return 0.0;
-            const double f_n = n.dot(f);
             const Vec3 f_t = f - f_n * n;
-            const double f_n_new = std::max(0.0, f_n - gap / w);
+            // The give grows with the force (w per unit force) up to its cap, past which the
+            // contact is hard (D_cc per unit force): the new force on the branch it lands on.
+            double f_n_new = std::max(0.0, f_n - linear_gap / w);
+            if (eps * (f_n_new - plane.preload) > plane.compliance_cap) {
+                const double hard_gap = linear_gap - eps * (f_n - plane.preload);
+                f_n_new = std::max(0.0, f_n - (hard_gap + plane.compliance_cap) / coupling_cc);
+            }
             // Tangent: the force that cancels the tangential displacement since the step start
             // (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
             Vec3 u = x - start_positions.row(c).transpose();

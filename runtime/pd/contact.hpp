@@ -26,6 +26,7 @@
 // conditions.) On the demo's creature (580 candidates, about 20 pushing) this took the contact
 // solve from 31 to 5 ms per step.
 
+#include <limits>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -55,6 +56,11 @@ struct PlaneCollider {
     /// The gap the conditions keep (m, >= 0): n . (x - point) >= offset. The contact stage
     /// sets it for contacts between reduced bodies (docs/method.md, "Skin").
     double offset = 0.0;
+    /// The most the compliance may give along the normal (m; infinity: no cap): the conditions
+    /// hold at n . x + min(eps (f_n - preload), compliance_cap) (tangentially at x + eps f_t as
+    /// before). Past it the contact is hard. The contact stage sets it for contacts between
+    /// bodies (docs/method.md, "Compliance cap").
+    double compliance_cap = std::numeric_limits<double>::infinity();
 };
 
 /// One candidate contact: a node against a plane.

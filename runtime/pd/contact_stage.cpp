@@ -33,6 +33,7 @@ void ContactStage::init_body(int b, PdSolver& solver)
     const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
     data.margin = solver.options().contact_margin * diagonal;
     data.resting_depth = resting_depth_fraction * diagonal;
+    data.compliance_cap = solver.options().compliance_cap * diagonal;
     const Index num_planes = static_cast<Index>(solver.options().planes.size());
     data.num_planes = num_planes;
     data.previous_ground = MatX3::Zero(model.num_nodes() * num_planes, 3);
@@ -200,6 +201,19 @@ void ContactStage::add_body_contacts(
                      .solver->options()
                      .contact_skin)
                 plane.offset = 0.0;
+        // The compliance's give capped where every stepped body has a cap (docs/method.md,
+        // "Compliance cap"): the skin plus the smaller cap.
+        if (!record.self) {
+            double cap = std::numeric_limits<double>::infinity();
+            for (int s = 0; s < record.num_sides && cap > 0.0; ++s) {
+                const double body_cap = m_data[static_cast<std::size_t>(
+                                                   record.sides[static_cast<std::size_t>(s)].body)]
+                                            .compliance_cap;
+                cap = body_cap > 0.0 ? std::min(cap, body_cap) : 0.0;
+            }
+            if (cap > 0.0)
+                plane.compliance_cap = plane.offset + cap;
+        }
         m_pairs.push_back(
             ContactPair { static_cast<int>(m_records.size()), static_cast<int>(m_planes.size()) });
         m_planes.push_back(plane);

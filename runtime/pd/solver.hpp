@@ -107,6 +107,11 @@ struct SolverOptions {
     /// collision world's skin) only when every body it pushes has this; otherwise it keeps none
     /// (docs/method.md, "Skin": full-space bodies crushed with it).
     bool contact_skin = false;
+    /// The most the compliance of a contact between bodies may give along its normal beyond the
+    /// skin, as a fraction of the smaller rest bounding-box diagonal (0: no cap); past it the
+    /// contact is hard (PlaneCollider::compliance_cap). On a contact only when every body it
+    /// pushes has it, the smaller of their caps (docs/method.md, "Compliance cap").
+    double compliance_cap = 0.0;
     /// A contact of a vertex against a face of this body (stepped) takes the face's outward
     /// normal at each iteration's positions, not only at the step's start (docs/method.md,
     /// "Planes that follow the iterate").

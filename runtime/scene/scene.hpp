@@ -70,6 +70,9 @@ struct SolverSettings {
     /// The gap contacts between objects keep, relative to the collision margin (reduced
     /// objects only: SolverOptions::contact_skin)
     double contact_skin = 0.0;
+    /// The most a contact between objects may sink by its compliance beyond the skin, relative
+    /// to the smaller object's diagonal (semi-reduced objects only: SolverOptions::compliance_cap)
+    double compliance_cap = 0.0;
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed
     /// x its rest bounding-box diagonal per second; 0 = never.

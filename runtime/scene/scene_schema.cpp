@@ -319,6 +319,15 @@ namespace {
                          "margin: they rest that far apart instead of slightly inside each "
                          "other, where triangles stayed crossed; full-space objects never use it "
                          "(docs/method.md, \"Skin\")"),
+            value_key(S::solver, "compliance_cap", T::number, &SolverSettings::compliance_cap)
+                .set_default(0.004)
+                .at_least(0)
+                .at_most(0.05)
+                .set_doc("the deepest a contact between objects may sink by its compliance, "
+                         "beyond the skin, fraction of the smaller object's bounding-box "
+                         "diagonal (0: no cap); past it the contact is hard. Semi-reduced "
+                         "objects only: hyper-reduced and full-space ones crushed with it "
+                         "(docs/method.md, \"Compliance cap\")"),
             value_key(
                 S::solver, "collision_friction", T::number, &SolverSettings::collision_friction)
                 .set_default(0.3)

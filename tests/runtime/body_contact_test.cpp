@@ -262,10 +262,13 @@ namespace {
     // 1/30 s: 0.4 and 1 m per step, more than twice the plate's thickness. Speculative contacts
     // (a vertex is a candidate as far ahead as its approach speed takes it in the step) stop it:
     // its centroid stays in front of the plate's in every step, no vertex sinks 2 cm into the
-    // plate, and no triangle pair intersects in the last 10 frames. Measured here (the exhaustive
-    // check of --check-collisions): the deepest vertex penetration during the impact 3.2-8.5 mm
-    // (semi 7.8 / 8.5, full 3.2 / 6.5, hyper 7.8 / 8.5 mm at 12 / 30 m/s); the target of 0.5% of
-    // the capsule's diagonal (3.9 mm) is not met during the impact but by full space at 12 m/s.
+    // plate, and no triangle pair intersects in the last 10 frames. Semi-reduced, where the
+    // compliance's give is capped (solver.compliance_cap, 0.4% of the capsule's diagonal beyond
+    // the skin; docs/method.md, "Compliance cap"), no vertex sinks more than 0.5% of the
+    // capsule's diagonal (3.9 mm). Measured here (the exhaustive check of --check-collisions,
+    // x86-64-v3 build): the deepest vertex penetration during the impact semi 3.06 / 3.07 mm
+    // (6.52 / 6.76 without the cap), full 3.17 / 6.54, hyper 6.50 / 7.20 mm at 12 / 30 m/s; the
+    // 0.5% target is not met by full space at 30 m/s nor by hyper-reduced bodies.
     TEST_P(ContactTunnelTest, ProjectileIsStoppedByThePlate)
     {
         const TunnelParam& p = GetParam();
@@ -305,6 +308,9 @@ namespace {
             }
         }
         EXPECT_LT(max_penetration, 0.02);
+        if (p.solver == SolverKind::semi_reduced) {
+            EXPECT_LE(max_penetration, 0.005 * projectile.model->rest_diagonal());
+        }
     }
 
     std::vector<TunnelParam> tunnel_params()

@@ -63,6 +63,36 @@ namespace {
         EXPECT_NEAR(positions(0, 0), 0.3, 1e-15);
     }
 
+    TEST(PlaneContact, CappedComplianceGivesNoMoreThanItsCap)
+    {
+        // The case above gives 0.2 k / (1 + k) = 18.2 mm behind the plane. Capped at 10 mm, the
+        // contact is hard past the cap: the node rests exactly 10 mm behind, f = (0.2 - 0.01) /
+        // D. Capped at 30 mm, the cap does not bind and the force is the compliant one.
+        PlaneCollider plane { Vec3::Zero(), Vec3::UnitY(), 0.0 };
+        plane.compliance = 0.1;
+        MatX coupling(1, 1);
+        coupling << 0.5;
+        const std::vector<ContactPair> pairs { ContactPair { 0, 0 } };
+        MatX3 free(1, 3), start(1, 3), positions(1, 3);
+        free << 0.3, -0.2, 0.1;
+        start << 0.0, 0.1, 0.0;
+        for (const double cap : { 0.01, 0.03 }) {
+            plane.compliance_cap = cap;
+            const std::vector<PlaneCollider> planes { plane };
+            MatX3 forces = MatX3::Zero(1, 3);
+            solve_dense(coupling, planes, pairs, free, start, forces, positions);
+            const double compliant = 0.2 / (0.5 * 1.1);
+            if (cap < 0.2 * 0.1 / 1.1) {
+                EXPECT_NEAR(positions(0, 1), -cap, 1e-12);
+                EXPECT_NEAR(forces(0, 1), (0.2 - cap) / 0.5, 1e-12);
+                EXPECT_GT(forces(0, 1), compliant);
+            } else {
+                EXPECT_NEAR(forces(0, 1), compliant, 1e-12);
+                EXPECT_NEAR(positions(0, 1), -0.2 * 0.1 / 1.1, 1e-12);
+            }
+        }
+    }
+
     TEST(PlaneContact, SingleNodeIsPushedOntoThePlane)
     {
         const std::vector<PlaneCollider> planes { PlaneCollider {
