@@ -385,9 +385,11 @@ namespace {
     // 16 times the limb's thickness. The limb bends back and throws the projectile back: in every
     // step the projectile's centroid stays in front of the limb's middle, no vertex sinks half
     // the limb's thickness into the other body, and no triangle pair intersects in the last 10
-    // of 30 frames (they part after about 12). Measured here: the deepest penetration (the
-    // exhaustive check of --check-collisions) 2.6 mm semi-reduced, 1.9 mm full space, 2.6 mm
-    // hyper-reduced (0.5% of the limb's diagonal is 2.1 mm: met in full space only); the limb's
+    // of 30 frames (they part after about 12). Semi-reduced (its contacts' give capped,
+    // solver.compliance_cap) no vertex sinks more than 0.5% of the limb's diagonal (2.1 mm).
+    // Measured here: the deepest penetration (the exhaustive check of --check-collisions,
+    // x86-64-v3 build) 1.40 mm semi-reduced, 2.06 mm full space, 1.35 mm hyper-reduced (with a
+    // -march=native build on a Zen 4: 2.6, 1.9 and 2.6 mm, before the cap); the limb's
     // middle bends back 0.24-0.35 m; the projectile leaves at 1.5-2.2 m/s. Without speculative
     // contacts (no lookahead) the projectile passes through.
     TEST_P(ContactThinLimbTest, ThinLimbIsNotPassedThrough)
@@ -445,6 +447,9 @@ namespace {
         EXPECT_LT(deepest_middle, -0.05);
         EXPECT_GT(projectile.state.velocities.col(2).mean(), 0.0);
         EXPECT_LT(max_penetration, 0.01);
+        if (GetParam() == SolverKind::semi_reduced) {
+            EXPECT_LE(max_penetration, 0.005 * limb.model->rest_diagonal());
+        }
     }
 
     INSTANTIATE_TEST_SUITE_P(Contact, ContactThinLimbTest,
