@@ -195,25 +195,22 @@ void ContactStage::add_body_contacts(
                 start += m_term_weight[static_cast<std::size_t>(k)]
                     * at_start.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
         }
-        // The skin only where every stepped body keeps it (SolverOptions::contact_skin).
-        for (int s = 0; s < record.num_sides; ++s)
-            if (!bodies[static_cast<std::size_t>(record.sides[static_cast<std::size_t>(s)].body)]
-                     .solver->options()
-                     .contact_skin)
-                plane.offset = 0.0;
-        // The compliance's give capped where every stepped body has a cap (docs/method.md,
-        // "Compliance cap"): the skin plus the smaller cap.
-        if (!record.self) {
-            double cap = std::numeric_limits<double>::infinity();
-            for (int s = 0; s < record.num_sides && cap > 0.0; ++s) {
-                const double body_cap = m_data[static_cast<std::size_t>(
-                                                   record.sides[static_cast<std::size_t>(s)].body)]
-                                            .compliance_cap;
-                cap = body_cap > 0.0 ? std::min(cap, body_cap) : 0.0;
-            }
-            if (cap > 0.0)
-                plane.compliance_cap = plane.offset + cap;
+        // The skin only where every stepped body keeps it (SolverOptions::contact_skin); the
+        // compliance's give capped where every stepped body has a cap, at the skin plus the
+        // smaller cap (docs/method.md, "Compliance cap").
+        bool skin = true;
+        double cap = std::numeric_limits<double>::infinity();
+        for (int s = 0; s < record.num_sides; ++s) {
+            const auto body
+                = static_cast<std::size_t>(record.sides[static_cast<std::size_t>(s)].body);
+            skin = skin && bodies[body].solver->options().contact_skin;
+            const double body_cap = m_data[body].compliance_cap;
+            cap = body_cap > 0.0 ? std::min(cap, body_cap) : 0.0;
         }
+        if (!skin)
+            plane.offset = 0.0;
+        if (!record.self && cap > 0.0)
+            plane.compliance_cap = plane.offset + cap;
         m_pairs.push_back(
             ContactPair { static_cast<int>(m_records.size()), static_cast<int>(m_planes.size()) });
         m_planes.push_back(plane);
