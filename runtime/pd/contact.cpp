@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Cholesky>
 
@@ -79,6 +80,8 @@ namespace {
         const Eigen::Ref<const MatX3>& start_positions;
         Eigen::Ref<MatX3>& forces;
         Eigen::Ref<MatX3>& positions;
+        /// Whether the planes' compliance caps bind (ContactSettings::compliance_caps).
+        bool caps = true;
 
         /// Contact c's compliance eps (its conditions hold at x + eps f).
         double compliance_of(Index c) const
@@ -90,12 +93,18 @@ namespace {
         /// The gap at x + eps (f - preload n) (`linear_gap`, the compliance uncapped) with
         /// the compliance's give along the normal held to the plane's cap: past it, the part
         /// of the give over the cap is taken back.
-        static double capped_gap(
-            const PlaneCollider& plane, double eps, double f_n, double linear_gap)
+        double capped_gap(
+            const PlaneCollider& plane, double eps, double f_n, double linear_gap) const
         {
             const double give = eps * (f_n - plane.preload);
-            return give > plane.compliance_cap ? linear_gap - give + plane.compliance_cap
-                                               : linear_gap;
+            const double cap = cap_of(plane);
+            return give > cap ? linear_gap - give + cap : linear_gap;
+        }
+
+        /// The plane's cap on the compliance's give where caps bind, else none.
+        double cap_of(const PlaneCollider& plane) const
+        {
+            return caps ? plane.compliance_cap : std::numeric_limits<double>::infinity();
         }
 
         /// Contact c's gap, at x + eps (f - preload n) with compliance (its normal give capped).
@@ -149,9 +158,10 @@ namespace {
             // The give grows with the force (w per unit force) up to its cap, past which the
             // contact is hard (D_cc per unit force): the new force on the branch it lands on.
             double f_n_new = std::max(0.0, f_n - linear_gap / w);
-            if (eps * (f_n_new - plane.preload) > plane.compliance_cap) {
+            const double cap = cap_of(plane);
+            if (eps * (f_n_new - plane.preload) > cap) {
                 const double hard_gap = linear_gap - eps * (f_n - plane.preload);
-                f_n_new = std::max(0.0, f_n - (hard_gap + plane.compliance_cap) / coupling_cc);
+                f_n_new = std::max(0.0, f_n - (hard_gap + cap) / coupling_cc);
             }
             // Tangent: the force that cancels the tangential displacement since the step start
             // (stick), projected onto the friction disk |f_t| <= mu f_n (slip).
@@ -447,6 +457,7 @@ ContactSolveResult solve_plane_contacts(ContactCoupling& coupling,
     // x = x_free + D f for the warm-start forces.
     PlaneContactSolve solve { coupling, diagonal, planes, pairs, free_positions, start_positions,
         forces, positions };
+    solve.caps = settings.compliance_caps;
     coupling.displace(free_positions, forces, nullptr, positions);
 
     // Projected Gauss-Seidel over a working set: the contacts that push or are not clear of

@@ -98,6 +98,9 @@ struct ContactSettings {
     int subspace_every = 0;
     /// The most pushing contacts such a step solves for (dense Cholesky factors of that order).
     int subspace_limit = 256;
+    /// Whether the planes' compliance caps bind (PlaneCollider::compliance_cap). The contact
+    /// stage lets them bind in the step's last solve only (docs/method.md, "Compliance cap").
+    bool compliance_caps = true;
 };
 
 struct ContactSolveResult {

@@ -530,6 +530,10 @@ void ContactStage::solve(bool last)
         settings.max_sweeps = std::min(settings.max_sweeps, settings.early_sweeps);
         settings.subspace_every = 0;
     }
+    // The compliance caps bind in the step's last solve only: bound in every solve, they
+    // crushed full-space bodies and strained hyper-reduced ones (docs/method.md,
+    // "Compliance cap").
+    settings.compliance_caps = last;
     const ContactSolveResult result = solve_plane_contacts(
         *this, m_planes, m_pairs, m_free, m_start, m_forces, m_positions, settings, m_scratch);
     m_sweeps += result.sweeps;

@@ -71,7 +71,7 @@ struct SolverSettings {
     /// objects only: SolverOptions::contact_skin)
     double contact_skin = 0.0;
     /// The most a contact between objects may sink by its compliance beyond the skin, relative
-    /// to the smaller object's diagonal (semi-reduced objects only: SolverOptions::compliance_cap)
+    /// to the smaller object's diagonal (SolverOptions::compliance_cap)
     double compliance_cap = 0.0;
     double collision_friction = 0.0; ///< Coulomb coefficient between objects
     /// A dynamic object sleeps after sleep_steps steps with every node slower than sleep_speed

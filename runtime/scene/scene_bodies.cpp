@@ -131,11 +131,7 @@ namespace {
         // Full-space bodies keep no skin: with it 2 of 20 creatures_collide runs crushed
         // (docs/method.md, "Skin").
         options.contact_skin = solver_kind != SolverKind::full;
-        // Only semi-reduced bodies cap their contacts' give: full-space creatures_collide
-        // crushed in 3 of 20 runs with the cap, hyper-reduced ones reached strain 5 to 9
-        // (docs/method.md, "Compliance cap").
-        options.compliance_cap
-            = solver_kind == SolverKind::semi_reduced ? scene.solver.compliance_cap : 0.0;
+        options.compliance_cap = scene.solver.compliance_cap;
         options.contact.subspace_every = scene.solver.contact_subspace ? 4 : 0;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(

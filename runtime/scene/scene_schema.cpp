@@ -325,9 +325,8 @@ namespace {
                 .at_most(0.05)
                 .set_doc("the deepest a contact between objects may sink by its compliance, "
                          "beyond the skin, fraction of the smaller object's bounding-box "
-                         "diagonal (0: no cap); past it the contact is hard. Semi-reduced "
-                         "objects only: full-space ones crushed with it and hyper-reduced ones "
-                         "reached strains of 5 to 9 (docs/method.md, \"Compliance cap\")"),
+                         "diagonal (0: no cap); past it the contact is hard, in the last "
+                         "contact solve of each step (docs/method.md, \"Compliance cap\")"),
             value_key(
                 S::solver, "collision_friction", T::number, &SolverSettings::collision_friction)
                 .set_default(0.3)

@@ -93,6 +93,31 @@ namespace {
         }
     }
 
+    TEST(PlaneContact, CapsBindOnlyWhereTheSolveLetsThem)
+    {
+        // The contact stage lets the caps bind in a step's last solve only
+        // (ContactSettings::compliance_caps): without them the 10 mm cap above is ignored and
+        // the node rests 18.2 mm behind, at the compliant force.
+        PlaneCollider plane { Vec3::Zero(), Vec3::UnitY(), 0.0 };
+        plane.compliance = 0.1;
+        plane.compliance_cap = 0.01;
+        const std::vector<PlaneCollider> planes { plane };
+        const std::vector<ContactPair> pairs { ContactPair { 0, 0 } };
+        MatX coupling(1, 1);
+        coupling << 0.5;
+        MatX3 free(1, 3), start(1, 3), positions(1, 3);
+        free << 0.3, -0.2, 0.1;
+        start << 0.0, 0.1, 0.0;
+        for (const bool caps : { false, true }) {
+            ContactSettings settings;
+            settings.compliance_caps = caps;
+            MatX3 forces = MatX3::Zero(1, 3);
+            solve_dense(coupling, planes, pairs, free, start, forces, positions, settings);
+            EXPECT_NEAR(positions(0, 1), caps ? -0.01 : -0.2 * 0.1 / 1.1, 1e-12) << caps;
+            EXPECT_NEAR(forces(0, 1), caps ? (0.2 - 0.01) / 0.5 : 0.2 / (0.5 * 1.1), 1e-12) << caps;
+        }
+    }
+
     TEST(PlaneContact, SingleNodeIsPushedOntoThePlane)
     {
         const std::vector<PlaneCollider> planes { PlaneCollider {
