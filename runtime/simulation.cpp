@@ -25,6 +25,7 @@ namespace {
             settings.friction = scene.solver.collision_friction;
             settings.edges = scene.solver.edge_contacts;
             settings.skin = scene.solver.contact_skin;
+            settings.self_skin = scene.solver.self_skin;
             return std::make_unique<CollisionWorld>(settings);
         }
         if (scene.objects.size() > 1)

@@ -499,7 +499,7 @@ void CollisionWorld::close_contact(const Vec3& normal, int key, bool is_self, in
     plane.point = Vec3::Zero();
     plane.normal = normal;
     plane.friction = m_settings.friction;
-    plane.offset = is_self ? 0.0 : m_settings.skin * m_margin;
+    plane.offset = (is_self ? m_settings.self_skin : m_settings.skin) * m_margin;
     m_contacts.close(plane, key, is_self, face);
     ++m_report.contacts;
 }

@@ -68,8 +68,10 @@ struct CollisionSettings {
     /// Edge-edge contacts besides the vertex-face ones (docs/method.md, "Edge contacts").
     bool edges = false;
     /// The gap a contact between two bodies keeps, relative to the margin (PlaneCollider::offset;
-    /// docs/method.md, "Skin"); self contacts keep none.
+    /// docs/method.md, "Skin").
     double skin = 0.0;
+    /// The gap a self contact keeps, relative to the margin (docs/method.md, "Self skin").
+    double self_skin = 0.0;
 };
 
 /// What the last detect() found and how long each phase took.

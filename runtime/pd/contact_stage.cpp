@@ -195,9 +195,10 @@ void ContactStage::add_body_contacts(
                 start += m_term_weight[static_cast<std::size_t>(k)]
                     * at_start.row(m_term_node[static_cast<std::size_t>(k)]).transpose();
         }
-        // The skin only where every stepped body keeps it (SolverOptions::contact_skin); the
-        // compliance's give capped where every stepped body has a cap, at the skin plus the
-        // smaller cap (docs/method.md, "Compliance cap").
+        // The skin of a contact between bodies only where every stepped body keeps it
+        // (SolverOptions::contact_skin; a self contact keeps its own in every mode, docs/method.md,
+        // "Self skin"); the compliance's give capped where every stepped body has a cap, at the
+        // skin plus the smaller cap (docs/method.md, "Compliance cap").
         bool skin = true;
         double cap = std::numeric_limits<double>::infinity();
         for (int s = 0; s < record.num_sides; ++s) {
@@ -207,7 +208,7 @@ void ContactStage::add_body_contacts(
             const double body_cap = m_data[body].compliance_cap;
             cap = body_cap > 0.0 ? std::min(cap, body_cap) : 0.0;
         }
-        if (!skin)
+        if (!skin && !record.self)
             plane.offset = 0.0;
         if (!record.self && cap > 0.0)
             plane.compliance_cap = plane.offset + cap;

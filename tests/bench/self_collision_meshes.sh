@@ -13,6 +13,7 @@
 #   recall: the drop with self collision on over 50 steps under --check-collisions: the recall
 #         of intersecting triangle pairs between non-adjacent primitives (section 4).
 #   tests/bench/self_collision_meshes.sh [BUILD_DIR] [THREADS] [MESH...]
+#   SOLVER_EXTRA='"self_skin": 0' tests/bench/...   more keys for every scene's "solver" block
 # Material: density 1000 kg/m^3, Poisson ratio 0.4, Young's modulus YOUNGS_PER_METRE (default 5e5)
 # Pa times the diagonal in metres, so that the sag under gravity (rho g L / E, 0.02 by default) is
 # the same at any size; dt = 1/30 s, 10 iterations.
@@ -66,7 +67,7 @@ scene() {
 {
   "time": { "dt": 0.0333333333, "frames": 20, "iterations": 10 },
   "gravity": [0, $3, 0],
-  "solver": { "collision": "bounded", "self_collision": "$5" },
+  "solver": { "collision": "bounded", "self_collision": "$5"${SOLVER_EXTRA:+, $SOLVER_EXTRA} },
   "objects": [
     { "name": "body", "bake": "$2", "position": [0, $4, 0],
       "material": { "youngs_modulus": $7, "poisson_ratio": 0.4, "density": 1000 } }
