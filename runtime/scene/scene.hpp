@@ -70,8 +70,8 @@ struct SolverSettings {
     /// The gap contacts between objects keep, relative to the collision margin (reduced
     /// objects only: SolverOptions::contact_skin)
     double contact_skin = 0.0;
-    /// The gap a self contact keeps, relative to the collision margin, in every mode
-    /// (CollisionSettings::self_skin)
+    /// The gap a self contact keeps, relative to the collision margin, in every mode (0: none;
+    /// CollisionSettings::self_skin)
     double self_skin = 0.0;
     /// The most a contact between objects may sink by its compliance beyond the skin, relative
     /// to the smaller object's diagonal (SolverOptions::compliance_cap)

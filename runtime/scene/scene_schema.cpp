@@ -320,12 +320,13 @@ namespace {
                          "other, where triangles stayed crossed; full-space objects never use it "
                          "(docs/method.md, \"Skin\")"),
             value_key(S::solver, "self_skin", T::number, &SolverSettings::self_skin)
-                .set_default(0.5)
+                .set_default(0.0)
                 .at_least(0)
                 .at_most(0.9)
                 .set_doc("the gap a self contact keeps, fraction of the collision margin, in "
                          "every mode: a body's parts rest that far apart instead of slightly "
-                         "inside each other (docs/method.md, \"Self skin\")"),
+                         "inside each other. Off by default: at 0.5 some hard landings crushed "
+                         "(docs/method.md, \"Self skin\")"),
             value_key(S::solver, "compliance_cap", T::number, &SolverSettings::compliance_cap)
                 .set_default(0.004)
                 .at_least(0)

@@ -658,9 +658,9 @@ namespace {
     // (solver.contact_skin, docs/method.md, "Skin") keeps creatures_collide, drop_on_pile and
     // creature_stack free of intersecting pairs at rest (measured here: 0; without it they kept
     // 130-440, the vertex penetration there under 1.3 mm; deepest over the run now 0, 0 and 1.1
-    // mm). The self skin (solver.self_skin, docs/method.md, "Self skin") does the same for the
-    // curled limb of limb_self_contact (measured here: 0 self-intersecting pairs in its last 10
-    // frames and 0 self penetration; without it 308 pairs over them, 1.35 mm).
+    // mm). The self skin that limb_self_contact sets (solver.self_skin 0.5, docs/method.md, "Self
+    // skin") does the same for its curled limb (measured here: 0 self-intersecting pairs in its
+    // last 10 frames and 0 self penetration; without it 308 pairs over them, 1.35 mm).
     TEST_P(CollisionSampleTest, PenetrationStaysWithinHalfAPercent)
     {
         const SampleParam& p = GetParam();
