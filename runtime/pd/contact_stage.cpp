@@ -34,6 +34,7 @@ void ContactStage::init_body(int b, PdSolver& solver)
     data.margin = solver.options().contact_margin * diagonal;
     data.resting_depth = resting_depth_fraction * diagonal;
     data.compliance_cap = solver.options().compliance_cap * diagonal;
+    data.self_push = solver.options().self_push_speed * diagonal * model.time_step();
     const Index num_planes = static_cast<Index>(solver.options().planes.size());
     data.num_planes = num_planes;
     data.previous_ground = MatX3::Zero(model.num_nodes() * num_planes, 3);
@@ -210,6 +211,13 @@ void ContactStage::add_body_contacts(
         }
         if (!skin && !record.self)
             plane.offset = 0.0;
+        // A self contact whose vertex starts the step behind its plane pushes it out by at most
+        // the body's self push in the step (docs/method.md, "Self contacts that start behind").
+        if (record.self) {
+            const double start_gap = plane.normal.dot(start - plane.point);
+            const double push = m_data[static_cast<std::size_t>(record.sides[0].body)].self_push;
+            plane.offset = std::min(plane.offset, start_gap + push);
+        }
         if (!record.self && cap > 0.0)
             plane.compliance_cap = plane.offset + cap;
         m_pairs.push_back(

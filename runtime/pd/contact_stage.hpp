@@ -192,6 +192,8 @@ private:
         double resting_depth = 0.0;
         /// SolverOptions::compliance_cap times the rest bounding-box diagonal (m; 0: none).
         double compliance_cap = 0.0;
+        /// SolverOptions::self_push_speed times the rest diagonal and the time step (m).
+        double self_push = 0.0;
         Index num_planes = 0; ///< its solver's ground planes
         MatX3 previous_ground; ///< #nodes * #planes x 3: last step's ground forces
         MatX3 previous_pair; ///< last step's contact force by key (BodyContacts::keys)

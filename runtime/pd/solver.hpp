@@ -112,6 +112,13 @@ struct SolverOptions {
     /// contact is hard (PlaneCollider::compliance_cap). On a contact only when every body it
     /// pushes has it, the smaller of their caps (docs/method.md, "Compliance cap").
     double compliance_cap = 0.0;
+    /// The fastest a self contact of this body pushes a vertex that starts the step behind its
+    /// plane (deeper than the self skin) back out, in rest bounding-box diagonals per second: its
+    /// plane's offset is at most the start gap plus this times the diagonal and the time step.
+    /// A vertex pressed back in every step was pushed out at once every step before, and each
+    /// push gave it speed: the energy of pressed bodies rose (docs/method.md, "Self contacts that
+    /// start behind").
+    double self_push_speed = std::numeric_limits<double>::infinity();
     /// A contact of a vertex against a face of this body (stepped) takes the face's outward
     /// normal at each iteration's positions, not only at the step's start (docs/method.md,
     /// "Planes that follow the iterate").

@@ -73,6 +73,9 @@ struct SolverSettings {
     /// The gap a self contact keeps, relative to the collision margin, in every mode (0: none;
     /// CollisionSettings::self_skin)
     double self_skin = 0.0;
+    /// The fastest a self contact pushes a vertex that starts a step behind its face back out,
+    /// in rest bounding-box diagonals per second (SolverOptions::self_push_speed)
+    double self_push_speed = 0.0;
     /// The most a contact between objects may sink by its compliance beyond the skin, relative
     /// to the smaller object's diagonal (SolverOptions::compliance_cap)
     double compliance_cap = 0.0;

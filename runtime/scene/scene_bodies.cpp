@@ -132,6 +132,7 @@ namespace {
         // (docs/method.md, "Skin").
         options.contact_skin = solver_kind != SolverKind::full;
         options.compliance_cap = scene.solver.compliance_cap;
+        options.self_push_speed = scene.solver.self_push_speed;
         options.contact.subspace_every = scene.solver.contact_subspace ? 4 : 0;
         for (const ColliderSettings& collider : scene.colliders)
             options.planes.push_back(

@@ -327,6 +327,14 @@ namespace {
                          "every mode: a body's parts rest that far apart instead of slightly "
                          "inside each other. Off by default: at 0.5 some hard landings crushed "
                          "(docs/method.md, \"Self skin\")"),
+            value_key(S::solver, "self_push_speed", T::number, &SolverSettings::self_push_speed)
+                .set_default(0.02)
+                .at_least(0)
+                .set_doc("the fastest a self contact pushes a vertex that starts a step behind "
+                         "its face back out, in the object's rest bounding-box diagonals per "
+                         "second (0: it is only held where it starts); pushed out at once, "
+                         "vertices pressed back in every step pumped energy into piled bodies "
+                         "(docs/method.md, \"Self contacts that start behind\")"),
             value_key(S::solver, "compliance_cap", T::number, &SolverSettings::compliance_cap)
                 .set_default(0.004)
                 .at_least(0)
