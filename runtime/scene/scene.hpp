@@ -75,7 +75,7 @@ struct SolverSettings {
     double self_skin = 0.0;
     /// The fastest a self contact pushes a vertex that starts a step behind its face back out,
     /// in rest bounding-box diagonals per second (SolverOptions::self_push_speed)
-    double self_push_speed = 0.0;
+    double self_push_speed = 0.02;
     /// The most a contact between objects may sink by its compliance beyond the skin, relative
     /// to the smaller object's diagonal (SolverOptions::compliance_cap)
     double compliance_cap = 0.0;

@@ -325,8 +325,10 @@ namespace {
                 .at_most(0.9)
                 .set_doc("the gap a self contact keeps, fraction of the collision margin, in "
                          "every mode: a body's parts rest that far apart instead of slightly "
-                         "inside each other. Off by default: at 0.5 some hard landings crushed "
-                         "(docs/method.md, \"Self skin\")"),
+                         "inside each other. Off by default: at 0.5 hard landings crushed "
+                         "before self_push_speed bounded the push; with it they do not, and "
+                         "the default waits for the samples' measures (docs/method.md, \"Self "
+                         "skin\", \"Self contacts that start behind\")"),
             value_key(S::solver, "self_push_speed", T::number, &SolverSettings::self_push_speed)
                 .set_default(0.02)
                 .at_least(0)
