@@ -53,10 +53,11 @@ struct PlaneCollider {
     /// and presses alike now rests at its plane, not eps |f| behind it (docs/method.md,
     /// "Compliance").
     double preload = 0.0;
-    /// The gap the conditions keep (m, >= 0): n . (x - point) >= offset. The collision world
-    /// sets it (the skin between bodies, the self skin within one); the contact stage clears it
-    /// on a contact between bodies where a stepped body keeps no skin (docs/method.md, "Skin",
-    /// "Self skin").
+    /// The gap the conditions keep (m): n . (x - point) >= offset. The collision world sets it
+    /// (the skin between bodies, the self skin within one); the contact stage clears it on a
+    /// contact between bodies where a stepped body keeps no skin, and lowers a self contact's
+    /// to its start gap plus the body's self push, below 0 for a vertex that starts deeper than
+    /// that (docs/method.md, "Skin", "Self skin", "Self contacts that start behind").
     double offset = 0.0;
     /// The most the compliance may give along the normal (m; infinity: no cap): the conditions
     /// hold at n . x + min(eps (f_n - preload), compliance_cap) (tangentially at x + eps f_t as

@@ -695,18 +695,25 @@ namespace {
         double diagonal = std::numeric_limits<double>::infinity(); ///< the smallest body's
     };
 
+    /// The total energy (kinetic, gravity's potential, elastic) of every body of `simulation`;
+    /// `strain` (if given) takes the largest strain among them.
+    double total_energy(const Simulation& simulation, const Vec3& gravity, double* strain = nullptr)
+    {
+        double sum = 0.0;
+        for (const Body& body : simulation.bodies()) {
+            const BodyMeasures m = measure_body(body.model->pd(), body.state, gravity);
+            sum += m.kinetic + m.potential + m.elastic;
+            if (strain != nullptr)
+                *strain = std::max(*strain, m.max_strain);
+        }
+        return sum;
+    }
+
     SampleRun run_sample(const Scene& scene, SolverKind solver)
     {
         Simulation simulation(scene, load_bodies(scene, solver));
-        const auto energy = [&](double& strain) {
-            double sum = 0.0;
-            for (const Body& body : simulation.bodies()) {
-                const BodyMeasures m = measure_body(body.model->pd(), body.state, scene.gravity);
-                sum += m.kinetic + m.potential + m.elastic;
-                strain = std::max(strain, m.max_strain);
-            }
-            return sum;
-        };
+        const auto energy
+            = [&](double& strain) { return total_energy(simulation, scene.gravity, &strain); };
         SampleRun run;
         for (const Body& body : simulation.bodies())
             run.diagonal = std::min(run.diagonal, body.model->rest_diagonal());
@@ -789,20 +796,11 @@ namespace {
         double energy_rise(const Scene& scene)
         {
             Simulation simulation(scene, load_bodies(scene, SolverKind::semi_reduced));
-            const auto energy = [&] {
-                double sum = 0.0;
-                for (const Body& body : simulation.bodies()) {
-                    const BodyMeasures m
-                        = measure_body(body.model->pd(), body.state, scene.gravity);
-                    sum += m.kinetic + m.potential + m.elastic;
-                }
-                return sum;
-            };
-            double lowest = energy();
+            double lowest = total_energy(simulation, scene.gravity);
             double rise = 0.0;
             for (int s = 1; s <= scene.frames * scene.steps_per_frame; ++s) {
                 simulation.step();
-                const double e = energy();
+                const double e = total_energy(simulation, scene.gravity);
                 lowest = std::min(lowest, e);
                 rise = std::max(rise, e - lowest);
             }
