@@ -123,10 +123,11 @@ namespace {
             : AngularMomentum::integrator;
         options.device = scene.solver.device == DeviceMode::cuda ? Device::cuda : Device::cpu;
         options.contact_margin = scene.solver.contact_margin;
-        // Hyper-reduced bodies keep the plain compliance: with the preload they crushed
-        // (docs/method.md, "Compliance").
+        // Only full-space bodies take the preload: hyper-reduced ones crushed with it, and
+        // semi-reduced ones, whose skin keeps their contacts from resting inside, crushed with it
+        // beside the self skin (docs/method.md, "Compliance", "Preload in full space only").
         options.compliance_preload
-            = scene.solver.compliance_preload && solver_kind != SolverKind::hyper_reduced;
+            = scene.solver.compliance_preload && solver_kind == SolverKind::full;
         options.planes_follow_iterate = scene.solver.planes_follow_iterate;
         // Full-space bodies keep no skin: with it 2 of 20 creatures_collide runs crushed
         // (docs/method.md, "Skin").

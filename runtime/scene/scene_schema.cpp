@@ -283,8 +283,9 @@ namespace {
                 .set_default("on")
                 .set_doc("a contact between objects that pressed in the last step keeps that "
                          "force free of the contacts' compliance, so that a steady contact "
-                         "rests at the surface instead of slightly inside it; hyper-reduced "
-                         "objects never use it (docs/method.md, \"Compliance\")"),
+                         "rests at the surface instead of slightly inside it; only full-space "
+                         "objects use it: reduced ones keep their skin off the surface instead "
+                         "(docs/method.md, \"Compliance\", \"Preload in full space only\")"),
             enum_key(S::solver, "contact_normals", &SolverSettings::planes_follow_iterate,
                 { "iterate", "step" })
                 .set_default("iterate")

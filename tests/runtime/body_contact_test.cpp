@@ -820,6 +820,26 @@ namespace {
         EXPECT_LE(limited, 0.01);
     }
 
+    // Preload in full space only (docs/method.md): creatures_collide with self collision on and
+    // the self skin 0.5, semi-reduced, friction 0.306 (one of the four runs of the protocol in
+    // which the landing crushed while semi-reduced bodies took the compliance preload: strain
+    // 5.71, a vertex 31.9 mm inside the other creature). Without the preload, which semi-reduced
+    // bodies no longer take, the strain stays below 2 and the deepest vertex within 0.5% of the
+    // diagonal; the energy never rises above its start.
+    class SelfSkinLandingTest : public SampleSceneTest { };
+
+    TEST_F(SelfSkinLandingTest, SemiReducedLandingDoesNotCrush)
+    {
+        Scene scene
+            = sample_scene("creatures_collide", R"("self_collision": "on", "self_skin": 0.5)");
+        scene.solver.collision_friction = 0.306;
+        const SampleRun run = run_sample(scene, SolverKind::semi_reduced);
+        std::cout << "strain " << run.strain << ", deepest " << run.deepest << " m\n";
+        EXPECT_LT(run.strain, 2.0);
+        EXPECT_LE(run.deepest, 0.005 * run.diagonal);
+        EXPECT_LE(run.highest_energy, run.start_energy * (1.0 + 1e-9));
+    }
+
     // Hyper-reduced contact (docs/method.md, "Hyper-reduced contact"): in a scene whose objects
     // collide, a hyper-reduced body takes the speculative stop and samples 5k tets by default
     // instead of 4k. creatures_collide then holds the penetration bound of the other modes: over
