@@ -110,13 +110,14 @@ read_stats() {
 
 # scene_copy SCENE_JSON BAKE ITERATIONS OUT [ACCELERATION [TOLERANCE [PROJECTIONS]]]: the scene
 # with its bake and iterations replaced (and solver.acceleration, time.tolerance and
-# solver.projections set, and time.duration if DURATION is).
+# solver.projections set, and time.duration if DURATION is). Self collision is off: the study
+# measures the elastic solvers, and none of its bodies reaches itself.
 scene_copy() {
     local duration=()
     if [ -n "$DURATION" ]; then duration=(-e "s|\"duration\": *[0-9.eE+-]*|\"duration\": $DURATION|"); fi
     sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" "${duration[@]}" \
         -e "s|\"iterations\": *[0-9]*|\"iterations\": $3, \"tolerance\": ${6:-0}|" \
-        -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\", \"projections\": \"${7:-fast}\" }, \"output\":|" \
+        -e "s|\"output\":|\"solver\": { \"acceleration\": \"${5:-none}\", \"projections\": \"${7:-fast}\", \"self_collision\": \"off\" }, \"output\":|" \
         "$1" > "$4"
     grep -q "\"bake\": \"$2\"" "$4" || { echo "make_charts: could not set the bake in $4" >&2; exit 1; }
     [ -z "$DURATION" ] || grep -q "\"duration\": $DURATION" "$4" \

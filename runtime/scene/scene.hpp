@@ -56,7 +56,7 @@ struct SolverSettings {
     int anderson_window = 0; ///< differences kept by Anderson acceleration
     double contact_margin = 0.0; ///< contact candidate distance, relative to the bake's size
     CollisionMode collision = CollisionMode::bounded; ///< "bounded", "lazy" or "off"
-    bool self_collision = false; ///< "on" or "off"
+    bool self_collision = true; ///< "on" or "off"
     bool edge_contacts = false; ///< "on" or "off": edge-edge contacts besides vertex-face
     bool compliance_preload = true; ///< "on" or "off" (SolverOptions::compliance_preload)
     /// "iterate" or "step" (SolverOptions::planes_follow_iterate)
@@ -72,7 +72,7 @@ struct SolverSettings {
     double contact_skin = 0.0;
     /// The gap a self contact keeps, relative to the collision margin, in every mode (0: none;
     /// CollisionSettings::self_skin)
-    double self_skin = 0.0;
+    double self_skin = 0.5;
     /// The fastest a self contact pushes a vertex that starts a step behind its face back out,
     /// in rest bounding-box diagonals per second (SolverOptions::self_push_speed)
     double self_push_speed = 0.02;

@@ -269,9 +269,11 @@ namespace {
                          "moved only (lazy, can miss under large deformation), or none; a scene "
                          "of one object without self collision has none to detect"),
             enum_key(S::solver, "self_collision", &SolverSettings::self_collision, { "on", "off" })
-                .set_default("off")
+                .set_default("on")
                 .set_doc("collision between non-adjacent medial primitives of one object (with "
-                         "collision on)"),
+                         "collision on): without it a body's parts pass through each other, as "
+                         "a pile's creatures did by 32 mm (docs/method.md, \"Self collision on "
+                         "by default\")"),
             enum_key(S::solver, "edge_contacts", &SolverSettings::edge_contacts, { "on", "off" })
                 .set_default("off")
                 .set_doc("contacts between sharp surface edges (convex, their faces at least 20 "
@@ -321,23 +323,23 @@ namespace {
                          "other, where triangles stayed crossed; full-space objects never use it "
                          "(docs/method.md, \"Skin\")"),
             value_key(S::solver, "self_skin", T::number, &SolverSettings::self_skin)
-                .set_default(0.0)
+                .set_default(0.5)
                 .at_least(0)
                 .at_most(0.9)
                 .set_doc("the gap a self contact keeps, fraction of the collision margin, in "
                          "every mode: a body's parts rest that far apart instead of slightly "
-                         "inside each other. Off by default: at 0.5 hard landings crushed "
-                         "before self_push_speed bounded the push; with it they do not, and "
-                         "the default waits for the samples' measures (docs/method.md, \"Self "
-                         "skin\", \"Self contacts that start behind\")"),
+                         "inside each other, where their triangles stayed crossed; never reached "
+                         "at rest (docs/method.md, \"Self skin\", \"Self collision on by "
+                         "default\")"),
             value_key(S::solver, "self_push_speed", T::number, &SolverSettings::self_push_speed)
                 .set_default(0.02)
                 .at_least(0)
                 .set_doc("the fastest a self contact pushes a vertex that starts a step behind "
                          "its face back out, in the object's rest bounding-box diagonals per "
-                         "second (0: it is only held where it starts); pushed out at once, "
-                         "vertices pressed back in every step pumped energy into piled bodies "
-                         "(docs/method.md, \"Self contacts that start behind\")"),
+                         "second (0: it is only held where it starts; full-space objects push at "
+                         "a quarter of it); pushed out at once, vertices pressed back in every "
+                         "step pumped energy into piled bodies (docs/method.md, \"Self contacts "
+                         "that start behind\", \"Self collision on by default\")"),
             value_key(S::solver, "compliance_cap", T::number, &SolverSettings::compliance_cap)
                 .set_default(0.004)
                 .at_least(0)

@@ -71,13 +71,12 @@ stats_of() {
 }
 
 # with_settings SCENE_JSON BAKE ITERATIONS SOLVER_JSON OUT: the scene with its bake, iterations
-# and a "solver" object (SOLVER_JSON, may be empty) set.
+# and a "solver" object (SOLVER_JSON, may be empty, and self collision off, as in
+# docs/make_charts.sh: the chart scenes' bodies never reach themselves) set.
 with_settings() {
     sed -e "s|\"bake\": *\"[^\"]*\"|\"bake\": \"$2\"|" \
         -e "s|\"iterations\": *[0-9]*|\"iterations\": $3|" "$1" > "$5"
-    if [ -n "$4" ]; then
-        sed -i -e "s|^\( *\)\"gravity\":|\1\"solver\": { $4 },\n&|" "$5"
-    fi
+    sed -i -e "s|^\( *\)\"gravity\":|\1\"solver\": { ${4:+$4, }\"self_collision\": \"off\" },\n&|" "$5"
     grep -q "\"bake\": \"$2\"" "$5" || { echo "error_limits: could not set the bake in $5" >&2; exit 1; }
 }
 

@@ -29,6 +29,7 @@ trap 'rm -rf "$work"' EXIT
 cat > "$work/scene.json" <<SCENE
 {
   "time": { "dt": 0.0333333333, "frames": 1, "iterations": 10 },
+  "solver": { "self_collision": "off" },
   "objects": [
     {
       "name": "creature", "bake": "creature.h5", "angular_velocity": [0, 2, 1],

@@ -191,21 +191,28 @@ namespace {
     TEST_F(CollisionCheckRun, NeedsCollisionOn)
     {
         test::write_capsule_bake(path("capsule.h5"));
-        RunOptions options;
-        options.scene = write_text("scene.json", R"({"objects": [{"bake": "capsule.h5"}]})");
-        options.output = path("out");
-        options.check_collisions = true;
-        try {
-            run_simulation(options);
-            FAIL() << "no error";
-        } catch (const Error& e) {
-            EXPECT_NE(std::string(e.what()).find("--check-collisions: "), std::string::npos)
-                << e.what();
-            EXPECT_NE(std::string(e.what()).find("has no collision between objects to check"),
-                std::string::npos)
-                << e.what();
+        // One object without self collision, and two with collision off.
+        for (const char* text :
+            { R"({"solver": {"self_collision": "off"}, "objects": [{"bake": "capsule.h5"}]})",
+                R"({"solver": {"collision": "off"},
+                    "objects": [{"bake": "capsule.h5"}, {"bake": "capsule.h5"}]})" }) {
+            SCOPED_TRACE(text);
+            RunOptions options;
+            options.scene = write_text("scene.json", text);
+            options.output = path("out");
+            options.check_collisions = true;
+            try {
+                run_simulation(options);
+                FAIL() << "no error";
+            } catch (const Error& e) {
+                EXPECT_NE(std::string(e.what()).find("--check-collisions: "), std::string::npos)
+                    << e.what();
+                EXPECT_NE(std::string(e.what()).find("has no collision between objects to check"),
+                    std::string::npos)
+                    << e.what();
+            }
+            EXPECT_FALSE(std::filesystem::exists(path("out")));
         }
-        EXPECT_FALSE(std::filesystem::exists(path("out")));
     }
 
 } // namespace
