@@ -9,6 +9,8 @@
 # for the process CPU time. Prints the last round in full, then per round and over the rounds
 # (median, min, max) the bounded pipeline's wall ms per step and the two ratios: the VM's speed
 # drifts by 15-50% over seconds to minutes, so one round can land in a slow state.
+# SELF_COLLISION=off measures the pairs between the two bodies only (the scene's
+# solver.self_collision; default on, as mat-run's default).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="${1:-$root/build}"
@@ -24,7 +26,7 @@ trap 'rm -rf "$work"' EXIT
 cat >"$work/scene.json" <<JSON
 {
   "time": { "dt": 0.0166666667, "iterations": 10 },
-  "solver": { "collision": "bounded", "edge_contacts": "$edges" },
+  "solver": { "collision": "bounded", "edge_contacts": "$edges", "self_collision": "${SELF_COLLISION:-on}" },
   "objects": [
     { "name": "lower", "bake": "creature.h5", "position": [0, 0.44, 0] },
     { "name": "upper", "bake": "creature.h5", "position": [0.05, 1.15, 0],
