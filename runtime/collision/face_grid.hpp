@@ -7,12 +7,16 @@
 // start of a short column) to the first box past it; with AVX-512, eight boxes per comparison.
 // Boxes of very different sizes are filed by size in up to four such grids (levels), each sized
 // by its own widest box, so that a few long triangles do not widen every query's scan.
+// A query may visit only the positions whose bit is set in a mask (read a word at a time before
+// the boxes, without AVX-512), and only the positions after one of its own (each overlapping
+// pair of one grid's items once).
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #if defined(__AVX512F__)
@@ -55,7 +59,7 @@ public:
         const Box3& box, double max_grow, const Grow& grow_of, const Visit& visit) const
     {
         for (const Level& level : m_levels)
-            overlapping_in(level, box, max_grow, grow_of, nullptr, visit);
+            overlapping_in(level, box, max_grow, grow_of, AllWords {}, -1, visit);
     }
     /// The same, visiting only the positions k whose bit (k % 64) of word k / 64 of `allowed`
     /// is set (one bit per position of `items`).
@@ -63,8 +67,18 @@ public:
     void overlapping_allowed(const Box3& box, double max_grow, const Grow& grow_of,
         const std::uint64_t* allowed, const Visit& visit) const
     {
+        const auto words = [allowed](int w) { return allowed[w]; };
         for (const Level& level : m_levels)
-            overlapping_in(level, box, max_grow, grow_of, allowed, visit);
+            overlapping_in(level, box, max_grow, grow_of, words, -1, visit);
+    }
+    /// The items after position `after` whose boxes overlap `box` and whose bit (k % 64) of
+    /// words(k / 64) is set: each overlapping pair of items once, from the earlier one.
+    template <class Words, class Visit>
+    void overlapping_after(const Box3& box, int after, const Words& words, const Visit& visit) const
+    {
+        for (const Level& level : m_levels)
+            overlapping_in(
+                level, box, 0.0, [](int) { return 0.0; }, words, after, visit);
     }
 
     /// Number of columns; the items filed in column c are at positions [column_begin(c),
@@ -102,17 +116,41 @@ private:
     void sort_into_columns();
     void store_boxes();
     int column(const Level& level, double at_u, double at_v) const;
-    template <class Grow, class Visit>
+    /// No filter by words (overlapping_in's `words`): every position.
+    struct AllWords {
+        std::uint64_t operator()(int) const { return ~std::uint64_t { 0 }; }
+    };
+    /// Visits the items of one level (see overlapping): those at positions after `after` only
+    /// whose bit is set in `words` (word index -> 64 bits of positions; AllWords: every
+    /// position), read before their boxes.
+    template <class Grow, class Words, class Visit>
     void overlapping_in(const Level& level, const Box3& box, double max_grow, const Grow& grow_of,
-        const std::uint64_t* allowed, const Visit& visit) const;
-    /// Bits k .. k + 7 of `allowed` (positions below `end` only).
-    static unsigned allowed_bits(const std::uint64_t* allowed, int k, int end)
+        const Words& words, int after, const Visit& visit) const;
+    /// test(at) for the positions `at` from k to the first past `to` (keys sorted) below `end`
+    /// whose bit is set in `words`, a word at a time.
+    template <class Words, class Test>
+    static void scan_words(
+        int k, int end, double to, const double* keys, const Words& words, const Test& test)
+    {
+        while (k < end && keys[k] <= to) {
+            const int word_end = std::min(end, (k / 64 + 1) * 64);
+            for (std::uint64_t bits = words(k / 64) >> (k % 64); bits != 0; bits &= bits - 1) {
+                const int at = k + static_cast<int>(__builtin_ctzll(bits));
+                if (at >= word_end || keys[at] > to)
+                    break;
+                test(at);
+            }
+            k = word_end;
+        }
+    }
+    /// Bits k .. k + 7 of `words` (positions below `end` only).
+    template <class Words> static unsigned allowed_bits(const Words& words, int k, int end)
     {
         const int word = k / 64;
         const int shift = k % 64;
-        std::uint64_t bits = allowed[word] >> shift;
+        std::uint64_t bits = words(word) >> shift;
         if (shift > 56 && word * 64 + 64 < end)
-            bits |= allowed[word + 1] << (64 - shift);
+            bits |= words(word + 1) << (64 - shift);
         return static_cast<unsigned>(bits & 0xFFu);
     }
 
@@ -136,10 +174,11 @@ private:
     std::vector<SortKey> m_keys; ///< workspace of the sort
 };
 
-template <class Grow, class Visit>
+template <class Grow, class Words, class Visit>
 void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_grow,
-    const Grow& grow_of, const std::uint64_t* allowed, const Visit& visit) const
+    const Grow& grow_of, const Words& words, int after, const Visit& visit) const
 {
+    constexpr bool every = std::is_same_v<Words, AllWords>;
     // The boxes that can overlap have their low corner in the columns from (box low -
     // grow - widest box) to (box high + grow), and in each column, their low end on the sweep
     // axis in the same range.
@@ -173,7 +212,7 @@ void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_gr
             const int c = level.first_column + cv * level.columns_u + cu;
             const int begin = m_column_start[static_cast<std::size_t>(c)];
             const int end = m_column_start[static_cast<std::size_t>(c + 1)];
-            if (begin == end)
+            if (begin == end || end <= after + 1)
                 continue;
             const double grow = grow_of(c);
             if (!(grow >= 0.0))
@@ -189,6 +228,7 @@ void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_gr
             int k = end - begin <= short_column
                 ? begin
                 : static_cast<int>(std::lower_bound(keys + begin, keys + end, from) - keys);
+            k = std::max(k, after + 1);
 #if defined(__AVX512F__)
             const __m512d low_a = _mm512_set1_pd(grown.min()(axis)), high_a = _mm512_set1_pd(to);
             const __m512d low_u = _mm512_set1_pd(grown.min()(u));
@@ -211,8 +251,8 @@ void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_gr
                     m, _mm512_maskz_loadu_pd(live, lo_v + k), high_v, _CMP_LE_OQ);
                 m = _mm512_mask_cmp_pd_mask(
                     m, low_v, _mm512_maskz_loadu_pd(live, hi_v + k), _CMP_LE_OQ);
-                if (allowed != nullptr)
-                    m = static_cast<__mmask8>(m & allowed_bits(allowed, k, end));
+                if constexpr (!every)
+                    m = static_cast<__mmask8>(m & allowed_bits(words, k, end));
                 for (unsigned bits = m; bits != 0; bits &= bits - 1) {
                     const int at = k + static_cast<int>(__builtin_ctz(bits));
                     visit(face[at], at);
@@ -221,12 +261,22 @@ void FaceGrid::overlapping_in(const Level& level, const Box3& box, double max_gr
                     break;
             }
 #else
-            for (; k < end && keys[k] <= to; ++k)
-                if ((grown.min()(axis) <= hi_a[k]) & (lo_u[k] <= grown.max()(u))
-                    & (grown.min()(u) <= hi_u[k]) & (lo_v[k] <= grown.max()(v))
-                    & (grown.min()(v) <= hi_v[k])
-                    & (allowed == nullptr || ((allowed[k / 64] >> (k % 64)) & 1u) != 0))
-                    visit(face[k], k);
+            const auto overlaps = [&](int at) {
+                return (grown.min()(axis) <= hi_a[at]) & (lo_u[at] <= grown.max()(u))
+                    & (grown.min()(u) <= hi_u[at]) & (lo_v[at] <= grown.max()(v))
+                    & (grown.min()(v) <= hi_v[at]);
+            };
+            if constexpr (every) {
+                for (; k < end && keys[k] <= to; ++k)
+                    if (overlaps(k))
+                        visit(face[k], k);
+            } else {
+                // The allowed positions first, a word at a time: only their boxes are read.
+                scan_words(k, end, to, keys, words, [&](int at) {
+                    if (overlaps(at))
+                        visit(face[at], at);
+                });
+            }
 #endif
         }
 }

@@ -10,7 +10,6 @@
 #include "runtime/collision/triangle_tests.hpp"
 
 namespace mat {
-
 namespace {
 
     using Item = NarrowPhase::Item;
@@ -70,6 +69,11 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
         // primitive).
         data.stamp.assign(static_cast<std::size_t>(num_primitives), -1);
         data.region.assign(static_cast<std::size_t>(num_primitives), Box3());
+        data.self_region.assign(static_cast<std::size_t>(num_primitives), Box3());
+        data.face_kinds.assign(static_cast<std::size_t>(body.faces->rows()), 0);
+        data.patch.assign(static_cast<std::size_t>(num_primitives), Box3());
+        data.patch_stamp.assign(static_cast<std::size_t>(num_primitives), -1);
+        data.patched.reserve(static_cast<std::size_t>(num_primitives));
         data.face_stamp.assign(static_cast<std::size_t>(body.faces->rows()), -1);
         data.face_position.assign(static_cast<std::size_t>(body.faces->rows()), -1);
         data.self_row.assign(static_cast<std::size_t>(num_primitives), -1);
@@ -100,7 +104,7 @@ void NarrowPhase::prepare(const std::vector<NarrowPhaseBody>& bodies)
 }
 
 void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
-    const std::vector<PrimitivePairRef>& pairs, double margin)
+    const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
 {
     ++m_run;
     for (BodyData& data : m_bodies) {
@@ -110,9 +114,11 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         data.partners.clear();
         data.self_pairs.clear();
     }
-    // Each primitive's region: the union of its pairs' regions, grown.
+    // Each primitive's region: the union of its pairs' regions, grown, each within reach of the
+    // partner's patch.
+    compute_patches(bodies, pairs);
     for (const PrimitivePairRef& pair : pairs)
-        add_pair(bodies, pair, margin);
+        add_pair(bodies, pair, margin, lookahead, extra);
     // The active triangles and nodes: those of an active primitive inside its region (a
     // triangle enclosed by several primitives is taken once). In parallel over the bodies.
     for_each_body(
@@ -266,8 +272,45 @@ void NarrowPhase::for_each_body(const std::vector<NarrowPhaseBody>& bodies, cons
         });
 }
 
-void NarrowPhase::add_pair(
-    const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin)
+void NarrowPhase::compute_patches(
+    const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs)
+{
+    for (BodyData& data : m_bodies)
+        data.patched.clear();
+    const auto mark = [&](int b, int p) {
+        BodyData& data = m_bodies[static_cast<std::size_t>(b)];
+        int& stamp = data.patch_stamp[static_cast<std::size_t>(p)];
+        if (stamp != m_run) {
+            stamp = m_run;
+            data.patched.push_back(p);
+        }
+    };
+    for (const PrimitivePairRef& pair : pairs) {
+        mark(pair.body_a, pair.primitive_a);
+        mark(pair.body_b, pair.primitive_b);
+    }
+    // Each patch written by one task; each body's fastest node.
+    for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
+        data.fastest = 0.0;
+        if (body.velocities != nullptr && !data.patched.empty())
+            data.fastest = std::sqrt(body.velocities->rowwise().squaredNorm().maxCoeff());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, data.patched.size(), 16),
+            [&](const tbb::blocked_range<std::size_t>& range) {
+                for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                    const int p = data.patched[k];
+                    Box3 box;
+                    for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j)
+                        box.extend(face_box(body, (*body.face_list)(j)));
+                    for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j)
+                        box.extend(Vec3(body.nodes->row((*body.node_list)(j)).transpose()));
+                    data.patch[static_cast<std::size_t>(p)] = box;
+                }
+            });
+    });
+}
+
+void NarrowPhase::add_pair(const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair,
+    double margin, double lookahead, double extra)
 {
     // Grown by the margin and by how far the two bodies' nodes may move in the step.
     const double grow = margin + bodies[static_cast<std::size_t>(pair.body_a)].motion
@@ -275,8 +318,28 @@ void NarrowPhase::add_pair(
     const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
     if (region.isEmpty())
         return;
-    extend_region(pair.body_a, pair.primitive_a, region);
-    extend_region(pair.body_b, pair.primitive_b, region);
+    // A face of one primitive meets a face of the other only within that one's patch, and a node
+    // finds a face only within its reach (the margin, plus `extra` against a static body, its
+    // own speed's lookahead and the other body's motion): each primitive's share of the region
+    // is what lies within that reach of the other's patch.
+    const double reach = grow + extra
+        + lookahead
+            * std::max(m_bodies[static_cast<std::size_t>(pair.body_a)].fastest,
+                m_bodies[static_cast<std::size_t>(pair.body_b)].fastest);
+    const auto near = [&](int body, int primitive) {
+        const Box3& patch
+            = m_bodies[static_cast<std::size_t>(body)].patch[static_cast<std::size_t>(primitive)];
+        return region.intersection(Box3(patch.min().array() - reach, patch.max().array() + reach));
+    };
+    const Box3 share_a = near(pair.body_b, pair.primitive_b);
+    const Box3 share_b = near(pair.body_a, pair.primitive_a);
+    if (share_a.isEmpty() && share_b.isEmpty())
+        return;
+    const bool self = pair.body_a == pair.body_b;
+    if (!share_a.isEmpty())
+        extend_region(pair.body_a, pair.primitive_a, share_a, self);
+    if (!share_b.isEmpty())
+        extend_region(pair.body_b, pair.primitive_b, share_b, self);
     m_bodies[static_cast<std::size_t>(pair.body_a)].partners.push_back(pair.body_b);
     m_bodies[static_cast<std::size_t>(pair.body_b)].partners.push_back(pair.body_a);
     if (pair.body_a == pair.body_b)
@@ -284,43 +347,57 @@ void NarrowPhase::add_pair(
             pair_key(pair.primitive_a, pair.primitive_b));
 }
 
-void NarrowPhase::extend_region(int body, int primitive, const Box3& region)
+void NarrowPhase::extend_region(int body, int primitive, const Box3& region, bool self)
 {
     BodyData& data = m_bodies[static_cast<std::size_t>(body)];
     const std::size_t p = static_cast<std::size_t>(primitive);
     if (data.stamp[p] != m_run) {
         data.stamp[p] = m_run;
-        data.region[p] = region;
+        data.region[p] = Box3();
+        data.self_region[p] = Box3();
         data.active.push_back(primitive);
-    } else {
-        data.region[p].extend(region);
     }
+    (self ? data.self_region : data.region)[p].extend(region);
 }
 
 void NarrowPhase::collect_active(const NarrowPhaseBody& body, BodyData& data) const
 {
     data.box = Box3();
+    data.node_kinds.clear();
     for (const int p : data.active) {
         const Box3& region = data.region[static_cast<std::size_t>(p)];
+        const Box3& self_region = data.self_region[static_cast<std::size_t>(p)];
         for (int j = (*body.face_indptr)(p); j < (*body.face_indptr)(p + 1); ++j) {
             const int f = (*body.face_list)(j);
             int& stamp = data.face_stamp[static_cast<std::size_t>(f)];
-            if (stamp == m_run)
+            unsigned char& kinds = data.face_kinds[static_cast<std::size_t>(f)];
+            if (stamp == m_run && kinds == (other_kind | self_kind))
                 continue;
             const Box3 box = face_box(body, f);
-            if (boxes_overlap(box, region)) {
-                stamp = m_run;
-                data.grid.items.push_back({ box, f });
-                data.box.extend(box);
+            const unsigned char in = (boxes_overlap(box, region) ? other_kind : 0)
+                | (boxes_overlap(box, self_region) ? self_kind : 0);
+            if (in == 0)
+                continue;
+            if (stamp == m_run) {
+                kinds |= in;
+                continue;
             }
+            stamp = m_run;
+            kinds = in;
+            data.grid.items.push_back({ box, f });
+            data.box.extend(box);
         }
         if (body.is_static)
             continue;
         for (int j = (*body.node_indptr)(p); j < (*body.node_indptr)(p + 1); ++j) {
             const int node = (*body.node_list)(j);
             const Vec3 x = body.nodes->row(node).transpose();
-            if (region.contains(x))
-                data.nodes.push_back({ Box3(x, x), node });
+            const unsigned char in
+                = (region.contains(x) ? other_kind : 0) | (self_region.contains(x) ? self_kind : 0);
+            if (in == 0)
+                continue;
+            data.nodes.push_back({ Box3(x, x), node });
+            data.node_kinds.push_back(in);
         }
     }
 }
@@ -671,35 +748,45 @@ void NarrowPhase::test_triangle(
     const std::vector<NarrowPhaseBody>& bodies, Scratch& scratch, std::size_t k) const
 {
     const int ba = m_work[k][0];
+    const int position = m_work[k][1];
     const BodyData& data = m_bodies[static_cast<std::size_t>(ba)];
-    const Item& item = data.grid.at(static_cast<std::size_t>(m_work[k][1]));
+    const Item& item = data.grid.at(static_cast<std::size_t>(position));
     const int fa = item.index;
     const NarrowPhaseBody& a = bodies[static_cast<std::size_t>(ba)];
     const Vec3 a0 = corner(a, fa, 0);
     const Vec3 a1 = corner(a, fa, 1);
     const Vec3 a2 = corner(a, fa, 2);
-    // Within the body, the face's primitives' self rows (or, without rows, the searches).
-    const bool rows = !data.self_bits.empty();
-    const auto allowed = [&](int fb, int position) {
-        if (!rows)
-            return self_pair_allowed(ba, fa, fb, false);
-        const VecXi& indptr = data.face_primitive_indptr;
-        for (int i = indptr(fa); i < indptr(fa + 1); ++i)
-            if (self_row_allows(data, data.face_primitives(i), position))
-                return true;
-        return false;
-    };
-    for (const int bb : data.partners) {
-        if (bb < ba)
-            continue;
+    const auto test = [&](int bb, int fb) {
         const NarrowPhaseBody& b = bodies[static_cast<std::size_t>(bb)];
-        m_bodies[static_cast<std::size_t>(bb)].grid.overlapping(item.box, 0.0, [&](int fb, int at) {
-            if (bb == ba && (fb <= fa || !allowed(fb, at) || share_corner(a, fa, b, fb)))
-                return;
-            ++scratch.triangle_tests;
-            if (triangles_intersect(
-                    a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
-                scratch.intersecting.push_back(FacePair { ba, fa, bb, fb });
+        ++scratch.triangle_tests;
+        if (triangles_intersect(a0, a1, a2, corner(b, fb, 0), corner(b, fb, 1), corner(b, fb, 2)))
+            scratch.intersecting.push_back(bb == ba
+                    ? FacePair { ba, std::min(fa, fb), ba, std::max(fa, fb) }
+                    : FacePair { ba, fa, bb, fb });
+    };
+    // Only against what the face's regions reach: other bodies, its own body.
+    const unsigned char kinds = data.face_kinds[static_cast<std::size_t>(fa)];
+    for (const int bb : data.partners) {
+        if (bb < ba || (kinds & (bb == ba ? self_kind : other_kind)) == 0)
+            continue;
+        if (bb != ba) {
+            m_bodies[static_cast<std::size_t>(bb)].grid.overlapping(
+                item.box, 0.0, [&](int fb, int) { test(bb, fb); });
+            continue;
+        }
+        // Within the body: the later positions that the face's primitives' self rows allow
+        // (each pair once), or without rows, those with a later face that the searches allow.
+        if (data.self_bits.empty()) {
+            data.grid.overlapping(item.box, 0.0, [&](int fb, int) {
+                if (fb > fa && self_pair_allowed(ba, fa, fb, false) && !share_corner(a, fa, a, fb))
+                    test(ba, fb);
+            });
+            continue;
+        }
+        const auto words = [&](int w) { return face_row_word(data, fa, w); };
+        data.grid.overlapping_after(item.box, position, words, [&](int fb, int) {
+            if (!share_corner(a, fa, a, fb))
+                test(ba, fb);
         });
     }
 }
@@ -735,7 +822,11 @@ bool NarrowPhase::nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, d
     query.margin = margin;
     query.lookahead = lookahead;
     bool found = false;
+    // Only against what the node's regions reach: other bodies, its own body.
+    const unsigned char kinds = data.node_kinds[static_cast<std::size_t>(m_node_work[k][1])];
     for (const int bf : data.partners) {
+        if ((kinds & (bf == bn ? self_kind : other_kind)) == 0)
+            continue;
         const NarrowPhaseBody& other = bodies[static_cast<std::size_t>(bf)];
         // Within the margin (plus what gravity adds in a step against a body that does not
         // fall: both dynamic bodies fall alike), or within reach of the node's approach in the
@@ -847,7 +938,7 @@ void NarrowPhase::run(const std::vector<NarrowPhaseBody>& bodies,
     const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra)
 {
     prepare(bodies);
-    activate(bodies, pairs, margin);
+    activate(bodies, pairs, margin, lookahead, extra);
     clear_scratch();
     build_work_lists();
     // Triangle pairs: each active triangle against the later bodies' active triangles (and its

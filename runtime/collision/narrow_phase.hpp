@@ -15,8 +15,12 @@
 // work (on the benchmark's creatures, 1795 primitive pairs gave 6372 triangle candidates for
 // 2359 distinct ones, and filtering each pair's lists cost more than the tests). Instead, per
 // step:
-//   1. each primitive's region is the union of its pairs' regions; its triangles and nodes in
-//      that region are marked active (a triangle enclosed by several primitives once);
+//   1. each primitive's region is the union of its pairs' regions, each pair's cut to what lies
+//      within reach of the other primitive's patch (the box of the triangles and nodes that
+//      primitive encloses: a triangle meets the other's triangles only there, a node finds one
+//      only within its reach); its triangles and nodes in that region are marked active (a
+//      triangle enclosed by several primitives once), each with the kinds of region it lies in
+//      (a pair with another body, a self pair), and it searches only those kinds;
 //   2. each body's active triangles are filed in a grid of columns across one axis (the shortest
 //      side of their box; cells no narrower than twice the widest triangle, by the low corner
 //      of the triangle's box; a grid per size class where the sizes differ by more than 2x the
@@ -24,11 +28,12 @@
 //   3. every active triangle (and node) looks up the boxes that overlap its own in the other
 //      side's neighbouring columns (a scan from the column's start, or past a binary search in
 //      a long column; with AVX-512, eight boxes per comparison), so each candidate is found and
-//      tested once. A node's search reaches, in each column, only as far as the motion of that
-//      column's faces lets them take it (a column holds faces close together, whose velocities
-//      differ less than the whole body's: on creatures_collide this visited 4.4x fewer boxes),
-//      skips the faces further than the nearest hit so far, and reads each face's corners and
-//      normal computed once per run.
+//      tested once: within one body, a triangle looks up only the positions filed after its
+//      own, and the self rows' bits are read a word at a time before the boxes. A node's search
+//      reaches, in each column, only as far as the motion of that column's faces lets them take it
+//      (a column holds faces close together, whose velocities differ less than the whole body's: on
+//      creatures_collide this visited 4.4x fewer boxes), skips the faces further than the nearest
+//      hit so far, and reads each face's corners and normal computed once per run.
 // The triangle pairs found are a superset of the pair-by-pair ones (those lie in the primitives'
 // regions too), so none of those is lost. Parallel (TBB) over triangles and nodes; the results
 // are sorted by a total order, so they do not depend on the thread count. Buffers are members,
@@ -207,10 +212,22 @@ public:
 private:
     struct BodyData {
         std::vector<int> stamp; ///< #P, the run in which `region` was reset
-        std::vector<Box3> region; ///< #P, union of the primitive's pairs' regions (grown)
+        /// #P, union of the primitive's pairs' regions (grown): with other bodies, and within
+        /// its own body (self pairs).
+        std::vector<Box3> region, self_region;
         std::vector<int> active; ///< the primitives with a pair this run
+        /// #P, the box of the faces and nodes a primitive encloses, at this run's positions
+        /// (for the primitives in a pair: patch_stamp is the run that computed it).
+        std::vector<Box3> patch;
+        std::vector<int> patch_stamp;
+        std::vector<int> patched; ///< the primitives whose patch this run computed
+        double fastest = 0.0; ///< the speed of its fastest node, this run (with a pair)
         Box3 box; ///< of the active faces
         std::vector<int> face_stamp; ///< #F, the run in which the face was made active
+        /// #F, an active face's kinds: in a region with another body (other_kind), in a self
+        /// region (self_kind), or both.
+        std::vector<unsigned char> face_kinds;
+        std::vector<unsigned char> node_kinds; ///< per active node (`nodes`), its kinds
         VecXi face_primitive_indptr; ///< #F + 1, the primitives enclosing each face (CSR)
         VecXi face_primitives;
         VecXi node_primitive; ///< n, the primitive of each boundary node (-1: none)
@@ -291,15 +308,22 @@ private:
 
     void prepare(const std::vector<NarrowPhaseBody>& bodies);
     void activate(const std::vector<NarrowPhaseBody>& bodies,
-        const std::vector<PrimitivePairRef>& pairs, double margin);
+        const std::vector<PrimitivePairRef>& pairs, double margin, double lookahead, double extra);
     /// work(body, data) for every body, in parallel.
     template <class Work>
     void for_each_body(const std::vector<NarrowPhaseBody>& bodies, const Work& work);
-    /// Grows the regions of a pair's two primitives by its region, and records the partners.
-    void add_pair(
-        const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair, double margin);
-    /// Extends a primitive's region by `region` (resetting it on its first pair of the run).
-    void extend_region(int body, int primitive, const Box3& region);
+    /// The patches of the primitives in `pairs` (BodyData::patch).
+    void compute_patches(
+        const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs);
+    /// Grows the regions of a pair's two primitives by its region, each within the reach of the
+    /// other's patch, and records the partners (not if neither is within reach).
+    void add_pair(const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair,
+        double margin, double lookahead, double extra);
+    /// The kinds of region an active face or node lies in (BodyData::face_kinds).
+    static constexpr unsigned char other_kind = 1, self_kind = 2;
+    /// Extends a primitive's region (or, `self`, its self region) by `region` (resetting both on
+    /// its first pair of the run).
+    void extend_region(int body, int primitive, const Box3& region, bool self);
     /// Files a body's triangles and nodes that lie in the regions of its active primitives.
     void collect_active(const NarrowPhaseBody& body, BodyData& data) const;
     /// m_axis: the shortest side of the box of every body's active triangles.
@@ -313,22 +337,25 @@ private:
     static void summarize_columns(const FaceGrid& grid, const MotionAt& motion_at,
         std::vector<BodyData::ColumnMotion>& columns);
     bool self_pair_allowed(int body, int face_a, int face_b, bool node_a) const;
-    /// A body's self rows (BodyData::self_bits), after file_faces.
     /// The plane and the corners' motion of the face at grid position k (file_faces).
     static void place_face(const NarrowPhaseBody& body, BodyData& data, std::size_t k);
+    /// A body's self rows (BodyData::self_bits), after file_faces.
     void mark_self_rows(const NarrowPhaseBody& body, BodyData& data) const;
     /// Row r's primitive's active faces as words of bits (mark_self_rows).
     void primitive_words(const NarrowPhaseBody& body, BodyData& data, std::size_t r) const;
-    /// Whether the face at grid position `position` of a body may pair, within it, with
-    /// primitive `primitive` (self_pair_allowed through the body's self rows).
-    static bool self_row_allows(const BodyData& data, int primitive, int position)
+    /// Word w of the grid positions that face `face` of a body may pair with within it: the
+    /// union of its primitives' self rows (self_pair_allowed through the rows).
+    static std::uint64_t face_row_word(const BodyData& data, int face, int w)
     {
-        const int row = primitive < 0 ? -1 : data.self_row[static_cast<std::size_t>(primitive)];
-        if (row < 0)
-            return false;
-        const std::size_t at = static_cast<std::size_t>(row) * data.self_words
-            + static_cast<std::size_t>(position) / 64;
-        return (data.self_bits[at] >> (static_cast<unsigned>(position) % 64)) & 1u;
+        std::uint64_t word = 0;
+        const VecXi& indptr = data.face_primitive_indptr;
+        for (int i = indptr(face); i < indptr(face + 1); ++i) {
+            const int row = data.self_row[static_cast<std::size_t>(data.face_primitives(i))];
+            if (row >= 0)
+                word |= data.self_bits[static_cast<std::size_t>(row) * data.self_words
+                    + static_cast<std::size_t>(w)];
+        }
+        return word;
     }
     /// visit(scratch, k) for k in [0, n): fixed chunks in parallel, each with its own scratch.
     template <class Visit> void in_chunks(std::size_t n, const Visit& visit);
@@ -343,7 +370,7 @@ private:
     bool nearest_triangle(const std::vector<NarrowPhaseBody>& bodies, double margin,
         double lookahead, double extra, Scratch& scratch, std::size_t k, NodeCandidate& best) const;
     /// Whether node `node` of body `body` never pairs with its own face `face`.
-    /// `allowed_known`: its primitives are known to pair (self_row_allows), not searched again.
+    /// `allowed_known`: its primitives are known to pair (the self rows), not searched again.
     bool own_face_excluded(
         const NarrowPhaseBody& own, int body, int node, int face, bool allowed_known) const;
     /// m_edge_work: each active sharp edge of a dynamic body.

@@ -1,7 +1,7 @@
 // The narrow phase's face grid against a brute-force scan: on box sets whose sizes differ by
 // orders of magnitude (filed in several levels), with per-column grows, with the allowed-position
-// mask and with non-finite boxes, every query visits exactly the boxes that overlap it, each
-// once.
+// mask, with the later positions only and with non-finite boxes, every query visits exactly the
+// boxes that overlap it, each once.
 
 #include <algorithm>
 #include <cmath>
@@ -105,6 +105,17 @@ namespace {
                 });
                 ASSERT_EQ(masked, brute_force(grid, box, grow_of, allowed.data()))
                     << "axis " << axis << " query " << q;
+                // The later positions only, without a grow, allowed by the words.
+                const int after = static_cast<int>(u(rng) * static_cast<double>(n)) - 1;
+                const auto words = [&](int w) { return allowed[static_cast<std::size_t>(w)]; };
+                const auto later = visits(grid,
+                    [&](const auto& visit) { grid.overlapping_after(box, after, words, visit); });
+                std::vector<std::pair<int, int>> expected = brute_force(
+                    grid, box, std::vector<double>(grow_of.size(), 0.0), allowed.data());
+                expected.erase(std::remove_if(expected.begin(), expected.end(),
+                                   [&](const auto& hit) { return hit.second <= after; }),
+                    expected.end());
+                ASSERT_EQ(later, expected) << "axis " << axis << " query " << q;
             }
         }
     }
@@ -137,6 +148,31 @@ namespace {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         grid.items.push_back({ Box3(Vec3(nan, 1.0, 1.0), Vec3(nan, 2.0, 2.0)), 9000, 0 });
         check_queries(grid, 13, 300);
+    }
+
+    // Each item looking up the later ones (all allowed) finds every overlapping pair of items
+    // exactly once: the self search of one body's triangles.
+    TEST(FaceGrid, LaterItemsGiveEachOverlappingPairOnce)
+    {
+        FaceGrid grid;
+        grid.items = mixed_boxes(4, 1500, 0.6, 3.0, 9);
+        const auto every = [](int) { return ~std::uint64_t { 0 }; };
+        for (int axis = 0; axis < 3; ++axis) {
+            grid.build(axis);
+            const int n = static_cast<int>(grid.items.size());
+            std::vector<std::pair<int, int>> found, expected;
+            for (int k = 0; k < n; ++k) {
+                grid.overlapping_after(grid.at(static_cast<std::size_t>(k)).box, k, every,
+                    [&](int, int at) { found.emplace_back(std::min(k, at), std::max(k, at)); });
+                for (int j = k + 1; j < n; ++j)
+                    if (overlaps(grid.at(static_cast<std::size_t>(k)).box,
+                            grid.at(static_cast<std::size_t>(j)).box))
+                        expected.emplace_back(k, j);
+            }
+            std::sort(found.begin(), found.end());
+            EXPECT_GT(expected.size(), 500u);
+            EXPECT_EQ(found, expected) << "axis " << axis;
+        }
     }
 
     TEST(FaceGrid, AnEmptyGridVisitsNothing)
