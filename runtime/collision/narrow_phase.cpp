@@ -112,6 +112,8 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
         data.grid.items.clear();
         data.nodes.clear();
         data.partners.clear();
+        if (data.partner_stamp.size() != m_bodies.size())
+            data.partner_stamp.assign(m_bodies.size(), -1);
         data.self_pairs.clear();
     }
     // Each primitive's region: the union of its pairs' regions, grown, each within reach of the
@@ -134,7 +136,7 @@ void NarrowPhase::activate(const std::vector<NarrowPhaseBody>& bodies,
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
         file_faces(body, data, axis);
         collect_active_edges(body, data, axis);
-        sort_unique(data.partners);
+        std::sort(data.partners.begin(), data.partners.end());
         sort_unique(data.self_pairs);
         mark_self_rows(body, data);
     });
@@ -340,8 +342,16 @@ void NarrowPhase::add_pair(const std::vector<NarrowPhaseBody>& bodies, const Pri
         extend_region(pair.body_a, pair.primitive_a, share_a, self);
     if (!share_b.isEmpty())
         extend_region(pair.body_b, pair.primitive_b, share_b, self);
-    m_bodies[static_cast<std::size_t>(pair.body_a)].partners.push_back(pair.body_b);
-    m_bodies[static_cast<std::size_t>(pair.body_b)].partners.push_back(pair.body_a);
+    const auto partner = [&](int body, int other) {
+        BodyData& data = m_bodies[static_cast<std::size_t>(body)];
+        int& stamp = data.partner_stamp[static_cast<std::size_t>(other)];
+        if (stamp != m_run) {
+            stamp = m_run;
+            data.partners.push_back(other);
+        }
+    };
+    partner(pair.body_a, pair.body_b);
+    partner(pair.body_b, pair.body_a);
     if (pair.body_a == pair.body_b)
         m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
             pair_key(pair.primitive_a, pair.primitive_b));

@@ -260,6 +260,7 @@ private:
         Vec3 mean_velocity = Vec3::Zero();
         double velocity_spread = 0.0;
         std::vector<int> partners; ///< bodies with a colliding pair, increasing (may hold itself)
+        std::vector<int> partner_stamp; ///< per body, the run in which it became a partner
         SurfaceEdges edges; ///< with edge contacts
         std::vector<int> sharp_edges; ///< the edges sharp at rest, increasing
         /// An active edge as the edges' search reads it, once per run: its ends, their
