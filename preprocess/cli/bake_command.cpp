@@ -122,9 +122,14 @@ void run_inspect(const std::string& path)
     std::printf("  inputs: %s (%s)\n          %s (%s)\n", b.surface_file.c_str(),
         b.surface_hash.c_str(), b.medial_file.c_str(), b.medial_hash.c_str());
     std::printf("  options: %s\n", b.options_json.c_str());
-    std::printf("  tet mesh: %lld nodes, %lld tets, volume %.6g\n",
+    // The diagonal of the nodes' box: the body's size as mat-run measures margins and
+    // penetrations against it (runtime/body_model.hpp).
+    const MatX3& nodes = b.tet_mesh.positions;
+    const double diagonal
+        = nodes.rows() > 0 ? (nodes.colwise().maxCoeff() - nodes.colwise().minCoeff()).norm() : 0.0;
+    std::printf("  tet mesh: %lld nodes, %lld tets, volume %.6g, bounding-box diagonal %.6g\n",
         static_cast<long long>(b.tet_mesh.num_vertices()),
-        static_cast<long long>(b.tet_mesh.num_tets()), b.rest_volumes.sum());
+        static_cast<long long>(b.tet_mesh.num_tets()), b.rest_volumes.sum(), diagonal);
     std::printf("  surface: %lld vertices, %lld faces (%lld outside the tet mesh, extrapolated)\n",
         static_cast<long long>(b.surface.num_vertices()),
         static_cast<long long>(b.surface.num_faces()),
