@@ -251,20 +251,29 @@ PenetrationDepth self_penetration_depth(const SurfaceMesh& surface,
                     angle += solid_angle(p, corner(f, 0), corner(f, 1), corner(f, 2));
                 if (angle / (4.0 * M_PI) <= 1.0)
                     continue;
+                // The far faces (no corner in the vertex's primitive or one sharing a sphere with
+                // it): their winding number, and the nearest.
                 const int pv = vertex_primitive(v);
                 double best = std::numeric_limits<double>::infinity();
+                double far_angle = 0.0;
                 for (Index f = 0; f < nf; ++f) {
                     bool far = true;
                     for (int k = 0; k < 3 && far; ++k) {
                         const int q = vertex_primitive(surface.faces(f, k));
                         far = q != pv && !share_sphere(primitive_spheres, pv, q);
                     }
-                    if (far)
-                        best = std::min(best,
-                            point_triangle_closest(p, corner(f, 0), corner(f, 1), corner(f, 2))
-                                .squared_distance);
+                    if (!far)
+                        continue;
+                    far_angle += solid_angle(p, corner(f, 0), corner(f, 1), corner(f, 2));
+                    best = std::min(best,
+                        point_triangle_closest(p, corner(f, 0), corner(f, 1), corner(f, 2))
+                            .squared_distance);
                 }
-                depth[static_cast<std::size_t>(v)] = std::isfinite(best) ? std::sqrt(best) : 0.0;
+                // Inside a non-adjacent part only where the far faces alone wind around it at
+                // least halfway (see the header): not in a local fold of adjacent parts.
+                if (far_angle / (4.0 * M_PI) <= 0.5)
+                    continue;
+                depth[static_cast<std::size_t>(v)] = std::sqrt(best);
             }
         });
     PenetrationDepth result;

@@ -22,8 +22,13 @@
 // (Jacobson et al. 2013: the solid angle of every triangle seen from the vertex, over 4 pi). At a
 // vertex of an embedded closed surface it is the vertex's interior angle fraction, in (0, 1), and
 // every other sheet of the surface that encloses the vertex adds 1: a vertex is inside its own
-// body where it exceeds 1. Its depth is its distance to the nearest face of a non-adjacent part
-// (no vertex of the face in the vertex's primitive or one sharing a sphere with it). It is
+// body where it exceeds 1. It is inside a non-adjacent part, and counted, only where the far
+// faces alone (no vertex of the face in the vertex's primitive or one sharing a sphere with it)
+// also wind around it at least halfway (their winding number above 1/2): a local fold of adjacent
+// parts (near pairs, not looked for) crumples a vertex's neighbourhood so that its winding
+// number passes 1 by a little while no other part encloses it (on kinematic_sweep, semi-reduced:
+// three vertices at 1.08-1.21, of which the far faces 0.06-0.19, each within 0.18 mm of a face;
+// they had been reported 8.8-35 mm deep). Its depth is its distance to the nearest far face. It is
 // computed only for a body with far self-intersecting pairs at the start of the step (without
 // them the surface is embedded apart from local folds, and no vertex can be inside it; a self
 // penetration that begins within a step is measured from the next step on), at O(#Vs x #F) cost.
@@ -75,8 +80,9 @@ struct PenetrationDepth {
 /// through an edge counts once) and their distance to B. A vertex on B counts as outside.
 PenetrationDepth penetration_depth(const std::vector<SurfaceMesh>& surfaces);
 
-/// The vertices of one closed surface inside its own volume (winding number above 1) and the
-/// deepest one's distance to a face of a non-adjacent part (see the file comment).
+/// The vertices of one closed surface inside its own volume (winding number above 1) and inside a
+/// non-adjacent part (the far faces' winding number above 1/2), and the deepest one's distance
+/// to a face of a non-adjacent part (see the file comment).
 /// surface  #Vs x 3 positions and #F x 3 faces, vertex_primitive  #Vs, primitive_spheres  #P x 3.
 PenetrationDepth self_penetration_depth(const SurfaceMesh& surface,
     const Eigen::Ref<const VecXi>& vertex_primitive,

@@ -127,6 +127,19 @@ namespace {
             self_penetration_depth(one, VecXi::Zero(8), MatX3i::Constant(1, 3, -1)).vertices, 0);
     }
 
+    TEST(SelfPenetration, EnclosedOnlyByAnAdjacentPartIsNotCounted)
+    {
+        // The small cube wholly inside the big one (winding number 1 + 1/8 at its corners), the
+        // two parts adjacent (their primitives share a sphere): a fold of adjacent parts, which
+        // the check does not look for; no far face winds around the corners, none counts. The
+        // same cubes in non-adjacent parts count (SelfPenetration.CornerOfOnePartInsideAnother).
+        const TwoPartSurface folded = two_cubes(Vec3(0.4, 0.4, 0.4), 0.2, true);
+        const PenetrationDepth depth = self_penetration_depth(
+            folded.surface, folded.vertex_primitive, folded.primitive_spheres);
+        EXPECT_EQ(depth.vertices, 0);
+        EXPECT_EQ(depth.max_depth, 0.0);
+    }
+
     TEST(CollisionCheck, SelfPairsSplitByPrimitiveAdjacency)
     {
         // Primitives: 0 = cone (spheres 0, 1), 1 = cone (1, 2), 2 = sphere 3.
