@@ -18,6 +18,8 @@
 # friction coefficient of the scene by 1 + 0.01 k (default k = 0 only: the scenes as committed).
 #   tests/bench/contact_targets.sh [BUILD_DIR] [THREADS] [K0] [K1]
 #   MODES="semi full" SCENES="creatures_collide" tests/bench/contact_targets.sh ...
+#   SOLVER='{"contact_skin": 0.25}' tests/bench/contact_targets.sh ...   keys merged into every
+#                                                     scene's "solver" block
 # A run with 1 thread gives the same figures as with more (the solvers are deterministic for
 # any thread count); each takes seconds to a minute (the check is exhaustive).
 set -euo pipefail
@@ -47,13 +49,14 @@ scene_file() { # scene_file NAME
 # The scene with its bakes' paths made absolute and every friction times 1 + 0.01 k; prints the
 # bakes, one per line.
 prepare() { # prepare SCENE_FILE K OUT
-    python3 - "$1" "$2" "$3" <<'PY'
+    python3 - "$1" "$2" "$3" "${SOLVER:-{\}}" <<'PY'
 import json, os, sys
 path, k, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 scene = json.load(open(path))
 here = os.path.dirname(os.path.abspath(path))
 factor = 1.0 + 0.01 * k
 solver = scene.setdefault("solver", {})
+solver.update(json.loads(sys.argv[4]))
 if "collision_friction" in solver:
     solver["collision_friction"] *= factor
 elif k != 0:
