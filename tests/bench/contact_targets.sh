@@ -14,7 +14,8 @@
 #              creatures_collide and drop_on_pile);
 #   rise       the largest rise of the total energy above its lowest so far, J;
 # then per scene the largest strain of the semi-reduced runs over the full-space ones (asked: at
-# most 1.5). Runs can vary the friction as the studies in docs/method.md do: K0..K1 multiply every
+# most 1.5), and a line for each run or scene that misses one of these bounds (exit status 1 if
+# any does, else 0). Runs can vary the friction as the studies in docs/method.md do: K0..K1 multiply every
 # friction coefficient of the scene by 1 + 0.01 k (default k = 0 only: the scenes as committed).
 #   tests/bench/contact_targets.sh [BUILD_DIR] [THREADS] [K0] [K1]
 #   MODES="semi full" SCENES="creatures_collide" tests/bench/contact_targets.sh ...
@@ -108,3 +109,22 @@ awk '{ key = $1 " " $2; if (!(key in most) || $9 > most[key]) most[key] = $9; se
      END { for (s in seen) if ((s " semi") in most && (s " full") in most && most[s " full"] > 0)
                printf "%-18s %.3f / %.3f = %.2f\n", s, most[s " semi"], most[s " full"],
                    most[s " semi"] / most[s " full"] }' "$work/lines" | sort
+# The bounds asked of contact: one line per run or scene that misses one; exit 1 if any does.
+echo "== runs and scenes over the bounds (penetration 0.5%, pairs at rest 0; strain 1.0 and semi/full 1.5 in creatures_collide and drop_on_pile)"
+awk '{ run = $1 " " $2 " k=" $3
+       if ($4 > 0.5) { print run ": penetration " $4 "%"; missed = 1 }
+       if ($7 > 0) { print run ": " $7 " pairs at rest"; missed = 1 }
+       named = $1 == "creatures_collide" || $1 == "drop_on_pile"
+       if (named && $9 > 1.0) { print run ": strain " $9; missed = 1 }
+       key = $1 " " $2; if (!(key in most) || $9 > most[key]) most[key] = $9 }
+     END { for (key in most) {
+               split(key, part, " ")
+               if (part[2] != "semi" || !((part[1] " full") in most) || most[part[1] " full"] <= 0)
+                   continue
+               named = part[1] == "creatures_collide" || part[1] == "drop_on_pile"
+               if (named && most[key] > 1.5 * most[part[1] " full"]) {
+                   print part[1] ": semi-reduced strain " most[key] " over 1.5 x full " most[part[1] " full"]
+                   missed = 1
+               }
+           }
+           exit missed }' "$work/lines"
