@@ -45,6 +45,16 @@ namespace {
             | static_cast<std::uint32_t>(hi);
     }
 
+    /// Appends `value` to `list` once per run: stamps[value] holds the run that added it.
+    void add_once(std::vector<int>& stamps, int value, int run, std::vector<int>& list)
+    {
+        int& stamp = stamps[static_cast<std::size_t>(value)];
+        if (stamp != run) {
+            stamp = run;
+            list.push_back(value);
+        }
+    }
+
     template <class T> void sort_unique(std::vector<T>& v)
     {
         std::sort(v.begin(), v.end());
@@ -279,17 +289,16 @@ void NarrowPhase::compute_patches(
 {
     for (BodyData& data : m_bodies)
         data.patched.clear();
-    const auto mark = [&](int b, int p) {
-        BodyData& data = m_bodies[static_cast<std::size_t>(b)];
-        int& stamp = data.patch_stamp[static_cast<std::size_t>(p)];
-        if (stamp != m_run) {
-            stamp = m_run;
-            data.patched.push_back(p);
-        }
-    };
+    // Only pairs between two bodies are cut to the patches: within one body the cut kept nearly
+    // every face active (docs/method.md, section 4, step 5) and was only a cost.
     for (const PrimitivePairRef& pair : pairs) {
-        mark(pair.body_a, pair.primitive_a);
-        mark(pair.body_b, pair.primitive_b);
+        if (pair.body_a == pair.body_b)
+            continue;
+        for (const auto& [b, p] : { std::pair(pair.body_a, pair.primitive_a),
+                 std::pair(pair.body_b, pair.primitive_b) }) {
+            BodyData& data = m_bodies[static_cast<std::size_t>(b)];
+            add_once(data.patch_stamp, p, m_run, data.patched);
+        }
     }
     // Each patch written by one task; each body's fastest node.
     for_each_body(bodies, [&](const NarrowPhaseBody& body, BodyData& data) {
@@ -320,10 +329,10 @@ void NarrowPhase::add_pair(const std::vector<NarrowPhaseBody>& bodies, const Pri
     const Box3 region(pair.region.min().array() - grow, pair.region.max().array() + grow);
     if (region.isEmpty())
         return;
-    // A face of one primitive meets a face of the other only within that one's patch, and a node
-    // finds a face only within its reach (the margin, plus `extra` against a static body, its
-    // own speed's lookahead and the other body's motion): each primitive's share of the region
-    // is what lies within that reach of the other's patch.
+    // Between two bodies, a face of one primitive meets a face of the other only within that
+    // one's patch, and a node finds a face only within its reach (the margin, plus `extra`
+    // against a static body, its own speed's lookahead and the other body's motion): each
+    // primitive's share of the region is what lies within that reach of the other's patch.
     const double reach = grow + extra
         + lookahead
             * std::max(m_bodies[static_cast<std::size_t>(pair.body_a)].fastest,
@@ -333,25 +342,19 @@ void NarrowPhase::add_pair(const std::vector<NarrowPhaseBody>& bodies, const Pri
             = m_bodies[static_cast<std::size_t>(body)].patch[static_cast<std::size_t>(primitive)];
         return region.intersection(Box3(patch.min().array() - reach, patch.max().array() + reach));
     };
-    const Box3 share_a = near(pair.body_b, pair.primitive_b);
-    const Box3 share_b = near(pair.body_a, pair.primitive_a);
+    const bool self = pair.body_a == pair.body_b;
+    const Box3 share_a = self ? region : near(pair.body_b, pair.primitive_b);
+    const Box3 share_b = self ? region : near(pair.body_a, pair.primitive_a);
     if (share_a.isEmpty() && share_b.isEmpty())
         return;
-    const bool self = pair.body_a == pair.body_b;
     if (!share_a.isEmpty())
         extend_region(pair.body_a, pair.primitive_a, share_a, self);
     if (!share_b.isEmpty())
         extend_region(pair.body_b, pair.primitive_b, share_b, self);
-    const auto partner = [&](int body, int other) {
-        BodyData& data = m_bodies[static_cast<std::size_t>(body)];
-        int& stamp = data.partner_stamp[static_cast<std::size_t>(other)];
-        if (stamp != m_run) {
-            stamp = m_run;
-            data.partners.push_back(other);
-        }
-    };
-    partner(pair.body_a, pair.body_b);
-    partner(pair.body_b, pair.body_a);
+    BodyData& data_a = m_bodies[static_cast<std::size_t>(pair.body_a)];
+    BodyData& data_b = m_bodies[static_cast<std::size_t>(pair.body_b)];
+    add_once(data_a.partner_stamp, pair.body_b, m_run, data_a.partners);
+    add_once(data_b.partner_stamp, pair.body_a, m_run, data_b.partners);
     if (pair.body_a == pair.body_b)
         m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
             pair_key(pair.primitive_a, pair.primitive_b));

@@ -15,12 +15,12 @@
 // work (on the benchmark's creatures, 1795 primitive pairs gave 6372 triangle candidates for
 // 2359 distinct ones, and filtering each pair's lists cost more than the tests). Instead, per
 // step:
-//   1. each primitive's region is the union of its pairs' regions, each pair's cut to what lies
-//      within reach of the other primitive's patch (the box of the triangles and nodes that
-//      primitive encloses: a triangle meets the other's triangles only there, a node finds one
-//      only within its reach); its triangles and nodes in that region are marked active (a
-//      triangle enclosed by several primitives once), each with the kinds of region it lies in
-//      (a pair with another body, a self pair), and it searches only those kinds;
+//   1. each primitive's region is the union of its pairs' regions, each pair's between two
+//      bodies cut to what lies within reach of the other primitive's patch (the box of the
+//      triangles and nodes that primitive encloses: a triangle meets the other's triangles only
+//      there, a node finds one only within its reach); its triangles and nodes in that region are
+//      marked active (a triangle enclosed by several primitives once), each with the kinds of
+//      region it lies in (a pair with another body, a self pair), and it searches only those kinds;
 //   2. each body's active triangles are filed in a grid of columns across one axis (the shortest
 //      side of their box; cells no narrower than twice the widest triangle, by the low corner
 //      of the triangle's box; a grid per size class where the sizes differ by more than 2x the
@@ -313,11 +313,12 @@ private:
     /// work(body, data) for every body, in parallel.
     template <class Work>
     void for_each_body(const std::vector<NarrowPhaseBody>& bodies, const Work& work);
-    /// The patches of the primitives in `pairs` (BodyData::patch).
+    /// The patches of the primitives in `pairs` between two bodies (BodyData::patch).
     void compute_patches(
         const std::vector<NarrowPhaseBody>& bodies, const std::vector<PrimitivePairRef>& pairs);
-    /// Grows the regions of a pair's two primitives by its region, each within the reach of the
-    /// other's patch, and records the partners (not if neither is within reach).
+    /// Grows the regions of a pair's two primitives by its region (between two bodies, each
+    /// within the reach of the other's patch), and records the partners (not if neither is
+    /// within reach).
     void add_pair(const std::vector<NarrowPhaseBody>& bodies, const PrimitivePairRef& pair,
         double margin, double lookahead, double extra);
     /// The kinds of region an active face or node lies in (BodyData::face_kinds).
