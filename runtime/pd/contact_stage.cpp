@@ -174,9 +174,9 @@ void ContactStage::add_body_contacts(
         }
         if (record.num_sides == 0)
             continue; // between constant bodies
-        add_face(record, bodies, contacts, c);
         record.self = static_cast<std::size_t>(c) < contacts.self.size()
             && contacts.self[static_cast<std::size_t>(c)];
+        add_face(record, bodies, contacts, c);
         if (record.self)
             plane.compliance_floor = self_compliance_floor(record);
         const ContactTerm& first = contacts.terms[static_cast<std::size_t>(begin)];
@@ -228,7 +228,8 @@ void ContactStage::add_body_contacts(
 }
 
 // A plane of a vertex against a face of a stepped body whose solver has planes_follow_iterate
-// keeps the face's corners (docs/method.md, "Planes that follow the iterate").
+// (and, for a self contact, self_planes_follow_iterate) keeps the face's corners (docs/method.md,
+// "Planes that follow the iterate", "Self contacts hold their planes in full space").
 void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>& bodies,
     const BodyContacts& contacts, Index c)
 {
@@ -244,7 +245,8 @@ void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>&
     MAT_CHECK(body >= 0 && body < static_cast<int>(bodies.size()),
         "contact stage: contact {} names body {} of {}", c, body, bodies.size());
     const PdSolver* solver = bodies[static_cast<std::size_t>(body)].solver;
-    if (solver == nullptr || !solver->options().planes_follow_iterate)
+    if (solver == nullptr || !solver->options().planes_follow_iterate
+        || (record.self && !solver->options().self_planes_follow_iterate))
         return;
     record.face_body = body;
     record.face = static_cast<int>(m_face_node.size());

@@ -257,7 +257,8 @@ private:
     void add_body_contacts(
         const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
     void add_side(Record& record, int body, int first, int count);
-    /// Contact c's face (BodyContacts::faces) into `record`, if its plane follows the iterate.
+    /// Contact c's face (BodyContacts::faces) into `record`, if its plane follows the iterate
+    /// (record.self set: a self contact's follows it only where its body's solver says so).
     void add_face(Record& record, const std::vector<ContactBodyState>& bodies,
         const BodyContacts& contacts, Index c);
     /// The compliance floor of a self contact: sum over its terms of w^2 / A_ii on its body, 0

@@ -123,6 +123,11 @@ struct SolverOptions {
     /// normal at each iteration's positions, not only at the step's start (docs/method.md,
     /// "Planes that follow the iterate").
     bool planes_follow_iterate = true;
+    /// The same for a self contact of this body (with planes_follow_iterate): false holds its
+    /// face's plane for the step. Full-space bodies hold them: with planes that turn, their
+    /// self contacts raised the energy of a resting pile (docs/method.md, "Self contacts hold
+    /// their planes in full space").
+    bool self_planes_follow_iterate = true;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;

@@ -129,6 +129,10 @@ namespace {
         options.compliance_preload
             = scene.solver.compliance_preload && solver_kind == SolverKind::full;
         options.planes_follow_iterate = scene.solver.planes_follow_iterate;
+        // Full-space bodies hold their self contacts' planes for the step: turning with the
+        // iterate beside the self skin, they raised a resting pile's energy (docs/method.md,
+        // "Self contacts hold their planes in full space").
+        options.self_planes_follow_iterate = solver_kind != SolverKind::full;
         // Full-space bodies keep no skin: with it 2 of 20 creatures_collide runs crushed
         // (docs/method.md, "Skin").
         options.contact_skin = solver_kind != SolverKind::full;

@@ -293,7 +293,9 @@ namespace {
                 .set_default("iterate")
                 .set_doc("a contact of a vertex against a face of a moving object takes the "
                          "face's normal at each iteration's positions (iterate) or at the step's "
-                         "start (step) (docs/method.md, \"Planes that follow the iterate\")"),
+                         "start (step); a full-space object's self contacts hold theirs "
+                         "either way (docs/method.md, \"Planes that follow the iterate\", "
+                         "\"Self contacts hold their planes in full space\")"),
             enum_key(S::solver, "detect_in_step", &SolverSettings::detect_in_step, { "on", "off" })
                 .set_default("off")
                 .set_doc("the contacts between objects are found again at the iterate halfway "
