@@ -355,9 +355,8 @@ void NarrowPhase::add_pair(const std::vector<NarrowPhaseBody>& bodies, const Pri
     BodyData& data_b = m_bodies[static_cast<std::size_t>(pair.body_b)];
     add_once(data_a.partner_stamp, pair.body_b, m_run, data_a.partners);
     add_once(data_b.partner_stamp, pair.body_a, m_run, data_b.partners);
-    if (pair.body_a == pair.body_b)
-        m_bodies[static_cast<std::size_t>(pair.body_a)].self_pairs.push_back(
-            pair_key(pair.primitive_a, pair.primitive_b));
+    if (self)
+        data_a.self_pairs.push_back(pair_key(pair.primitive_a, pair.primitive_b));
 }
 
 void NarrowPhase::extend_region(int body, int primitive, const Box3& region, bool self)
