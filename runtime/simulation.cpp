@@ -222,14 +222,15 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
     m_contact_stage->begin_step(views, contacts);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
     int detect_after = -1; // iterations after which the contacts are found again (-1: never)
-    if (m_collision && m_scene.solver.detect_in_step) {
+    if (m_collision) {
         detect_after = 0;
         for (const std::size_t b : m_stepped) {
             const SolverOptions& options = m_bodies[b].solver->options();
             // Not where the step is not the CPU's plain iteration, nor with a hyper-reduced
             // body (its local stage does not read the iterate): drop_on_pile crushed with it
             // (docs/method.md, "Contacts found again during the step").
-            if (options.device != Device::cpu || options.acceleration != Acceleration::none
+            if (!options.detect_in_step || options.device != Device::cpu
+                || options.acceleration != Acceleration::none
                 || !m_bodies[b].solver->local_stage().reads_iterate())
                 detect_after = -1;
             else if (detect_after >= 0)
@@ -249,7 +250,7 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
         for (const std::size_t b : m_stepped)
             m_bodies[b].solver->finish_iteration(iteration, last);
         if (!last && iteration + 1 == detect_after)
-            detect_in_step(views);
+            detect_in_step(views, contacts);
     }
     m_contact_stage->end_step();
     for (const std::size_t b : m_stepped) {
@@ -265,8 +266,11 @@ void Simulation::step_bodies(const BodyContacts& contacts, const std::vector<cha
 // The states at the iterate: a stepped body's positions and q after the last iteration, the
 // others' as at the step start (a kinematic body is at its end-of-step place already); no
 // velocities, so no speculative reach (the iterate is the step's end as far as it is known).
-void Simulation::detect_in_step(const std::vector<ContactBodyState>& views)
+void Simulation::detect_in_step(
+    const std::vector<ContactBodyState>& views, const BodyContacts& start)
 {
+    // `start` may be the collision world's own list, which the search below replaces.
+    m_start_contacts = start;
     std::vector<CollisionBodyState>& states = m_states;
     states.assign(m_bodies.size(), CollisionBodyState {});
     for (std::size_t b = 0; b < m_bodies.size(); ++b) {
@@ -283,10 +287,16 @@ void Simulation::detect_in_step(const std::vector<ContactBodyState>& views)
             states[b].nodes = &body.state.positions;
         }
     }
-    const BodyContacts& contacts = m_collision->detect_in_step(states);
+    m_step_contacts = m_collision->detect_in_step(states);
+    const Index found = m_step_contacts.size();
+    // A start contact that the iterate's search no longer finds stays: a vertex still on its
+    // way (a speculative contact whose vertex the iterations have not yet brought within the
+    // margin) would otherwise lose the contact that stops it (docs/method.md, "Contacts found
+    // again during the step").
+    m_step_contacts.append_missing(m_start_contacts, m_contact_ids);
     Timer timer;
     m_contact_stage->end_step();
-    m_contact_stage->begin_step(views, contacts, true);
+    m_contact_stage->begin_step(views, m_step_contacts, found);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
     for (const std::size_t b : m_stepped)
         m_bodies[b].solver->add_contact_seconds(share);

@@ -106,7 +106,7 @@ private:
     const BodyContacts& detect_contacts();
     /// Halfway through a step's iterations (solver.detect_in_step): the contacts found again at
     /// the iterate, and the contact stage begun again with them (its forces kept by key).
-    void detect_in_step(const std::vector<ContactBodyState>& views);
+    void detect_in_step(const std::vector<ContactBodyState>& views, const BodyContacts& start);
     /// Steps the awake dynamic bodies together with the contact stage.
     void step_bodies(const BodyContacts& contacts, const std::vector<char>& pins_moved);
 
@@ -114,6 +114,10 @@ private:
     std::vector<Body> m_bodies;
     // Per-step workspace (kept to allocate nothing per step).
     std::vector<CollisionBodyState> m_states;
+    /// detect_in_step's contacts: those found at the iterate, then those of the step's start
+    /// that the iterate's search no longer finds; and a copy of the start's.
+    BodyContacts m_step_contacts, m_start_contacts;
+    std::vector<std::uint64_t> m_contact_ids; ///< BodyContacts::append_missing's workspace
     std::vector<char> m_pins_moved;
     std::vector<std::size_t> m_movers;
     std::unique_ptr<CollisionWorld> m_collision;

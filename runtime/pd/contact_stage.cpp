@@ -129,7 +129,7 @@ void ContactStage::add_ground_contacts(int b, const ContactBodyState& body)
 //   n . (r - p) = n . (r_stepped - (p - r_constant)),
 //   r - r(start) = r_stepped - (r_stepped(start) - (r_constant(now) - r_constant(start))).
 void ContactStage::add_body_contacts(
-    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts)
+    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts, Index at_iterate)
 {
     for (Index c = 0; c < contacts.size(); ++c) {
         const int begin = contacts.offsets[static_cast<std::size_t>(c)];
@@ -176,6 +176,7 @@ void ContactStage::add_body_contacts(
             continue; // between constant bodies
         record.self = static_cast<std::size_t>(c) < contacts.self.size()
             && contacts.self[static_cast<std::size_t>(c)];
+        record.at_iterate = c < at_iterate;
         add_face(record, bodies, contacts, c);
         if (record.self)
             plane.compliance_floor = self_compliance_floor(record);
@@ -227,6 +228,29 @@ void ContactStage::add_body_contacts(
     }
 }
 
+void BodyContacts::append_missing(const BodyContacts& other, std::vector<std::uint64_t>& scratch)
+{
+    scratch.clear();
+    for (Index c = 0; c < size(); ++c)
+        scratch.push_back(identity(c));
+    std::sort(scratch.begin(), scratch.end());
+    for (Index c = 0; c < other.size(); ++c) {
+        if (std::binary_search(scratch.begin(), scratch.end(), other.identity(c)))
+            continue;
+        const auto k = static_cast<std::size_t>(c);
+        terms.insert(terms.end(), other.terms.begin() + other.offsets[k],
+            other.terms.begin() + other.offsets[k + 1]);
+        int face = -1;
+        const int from = k < other.faces.size() ? other.faces[k] : -1;
+        if (from >= 0) {
+            face = static_cast<int>(face_terms.size());
+            face_terms.insert(face_terms.end(), other.face_terms.begin() + from,
+                other.face_terms.begin() + from + 3 * face_corner_terms);
+        }
+        close(other.planes[k], other.keys[k], k < other.self.size() && other.self[k] != 0, face);
+    }
+}
+
 // A plane of a vertex against a face of a stepped body whose solver has planes_follow_iterate
 // (and, for a self contact, self_planes_follow_iterate) keeps the face's corners (docs/method.md,
 // "Planes that follow the iterate", "Self contacts hold their planes in full space").
@@ -259,9 +283,9 @@ void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>&
 }
 
 void ContactStage::begin_step(
-    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts, bool at_iterate)
+    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts, Index at_iterate)
 {
-    m_at_iterate = at_iterate;
+    m_at_iterate = at_iterate > 0;
     MAT_CHECK(bodies.size() == m_data.size(), "contact stage: {} bodies for {}", bodies.size(),
         m_data.size());
     m_records.clear();
@@ -280,7 +304,7 @@ void ContactStage::begin_step(
         if (bodies[b].solver == nullptr)
             continue;
         init_body(static_cast<int>(b), *bodies[b].solver);
-        if (at_iterate)
+        if (m_at_iterate)
             m_data[b].detected = bodies[b].solver->step_positions();
         const ContactSettings& settings = bodies[b].solver->options().contact;
         m_settings.max_sweeps = first_solver ? settings.max_sweeps
@@ -299,7 +323,7 @@ void ContactStage::begin_step(
         if (bodies[b].solver != nullptr && !bodies[b].solver->options().planes.empty())
             add_ground_contacts(static_cast<int>(b), bodies[b]);
     const Index ground = static_cast<Index>(m_records.size());
-    add_body_contacts(bodies, contacts);
+    add_body_contacts(bodies, contacts, at_iterate);
     m_body_contacts = static_cast<Index>(m_records.size()) - ground;
     for (std::size_t a = static_cast<std::size_t>(ground); a < m_records.size(); ++a) {
         // Contacts between bodies are compliant (PdSolver's node_contact_compliance).
@@ -625,8 +649,9 @@ void ContactStage::end_step()
             // (runtime/pd/angular_momentum.hpp), where its two points are a closest pair along
             // it (so that the two sides' moments of a normal force cancel); for contacts found
             // at an iterate, at that iterate.
-            const MatX3& begin = m_at_iterate ? m_data[static_cast<std::size_t>(side.body)].detected
-                                              : solver.step_start_positions();
+            const MatX3& begin = record.at_iterate
+                ? m_data[static_cast<std::size_t>(side.body)].detected
+                : solver.step_start_positions();
             for (int k = side.first; k < side.first + side.count; ++k) {
                 const Index node = m_term_node[static_cast<std::size_t>(k)];
                 solver.report().contact_moment += begin.row(node).transpose().cross(

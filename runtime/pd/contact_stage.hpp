@@ -27,6 +27,7 @@
 // (docs/method.md, "W in node space").
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "common/eigen_types.hpp"
@@ -100,6 +101,21 @@ struct BodyContacts {
         self.push_back(is_self ? 1 : 0);
         faces.push_back(face);
     }
+    /// The warm start identity of constraint c: its first body, and its key (or, without one,
+    /// its first node, flagged apart from keys).
+    std::uint64_t identity(Index c) const
+    {
+        const ContactTerm& first = terms[static_cast<std::size_t>(offsets[c])];
+        const int key = keys[static_cast<std::size_t>(c)];
+        const std::uint64_t id = key >= 0
+            ? static_cast<std::uint64_t>(key)
+            : (std::uint64_t { 1 } << 31) | static_cast<std::uint64_t>(first.node);
+        return (static_cast<std::uint64_t>(first.body) << 32) | id;
+    }
+    /// Appends the constraints of `other` whose identity none of this one's has (`scratch`:
+    /// reused workspace). Contacts found again during a step keep those of its start that the
+    /// new search no longer finds (docs/method.md, "Contacts found again during the step").
+    void append_missing(const BodyContacts& other, std::vector<std::uint64_t>& scratch);
 };
 
 /// What a contact stage carries from one step to the next for one body: the forces its
@@ -129,11 +145,12 @@ public:
     /// within its contact margin of a plane of its solver at the start of the step or at the
     /// inertia target) and `contacts`, then each body's responses and the warm start (the last
     /// step's force of the same ground pair, or of a contact at the same first node).
-    /// `at_iterate`: the contacts were found at an iterate during the step (the two points of a
-    /// contact are then a closest pair there, not at the step start: their impulses' moments are
-    /// taken at that iterate, see end_step()); the step's sweeps keep counting.
+    /// `at_iterate`: the first at_iterate of `contacts` were found at an iterate during the step
+    /// (the two points of such a contact are a closest pair there, not at the step start: their
+    /// impulses' moments are taken at that iterate, see end_step()), the rest at its start; with
+    /// any, the step's sweeps keep counting.
     void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts,
-        bool at_iterate = false);
+        Index at_iterate = 0);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
     /// their displacements to the bodies' global steps. `last`: the step's last iteration
     /// (before it, a solve with body contacts stops after ContactSettings::early_sweeps).
@@ -182,6 +199,9 @@ private:
         int face_body = -1;
         int face = -1;
         bool self = false; ///< within one body (BodyContacts::self)
+        /// Found at an iterate during the step (begin_step's `at_iterate`): its impulse's moment
+        /// is taken there.
+        bool at_iterate = false;
     };
     struct BodyData {
         bool initialized = false;
@@ -254,8 +274,9 @@ private:
 
     void init_body(int b, PdSolver& solver);
     void add_ground_contacts(int b, const ContactBodyState& body);
-    void add_body_contacts(
-        const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts);
+    /// `contacts` into the step's records, the first `at_iterate` of them found at an iterate.
+    void add_body_contacts(const std::vector<ContactBodyState>& bodies,
+        const BodyContacts& contacts, Index at_iterate);
     void add_side(Record& record, int body, int first, int count);
     /// Contact c's face (BodyContacts::faces) into `record`, if its plane follows the iterate
     /// (record.self set: a self contact's follows it only where its body's solver says so).
@@ -369,7 +390,7 @@ private:
     ContactSettings m_settings;
     int m_sweeps = 0;
     long m_turn_stamp = 0; ///< turn_planes() calls so far
-    bool m_at_iterate = false; ///< begin_step's
+    bool m_at_iterate = false; ///< begin_step's at_iterate > 0
     Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
     std::vector<int> m_island_root; ///< mark_world_held's union-find, per body
     std::vector<char> m_island_held; ///< mark_world_held's, per island root

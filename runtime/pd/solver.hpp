@@ -105,7 +105,7 @@ struct SolverOptions {
     bool compliance_preload = false;
     /// A contact between bodies keeps the gap its plane sets (PlaneCollider::offset, the
     /// collision world's skin) only when every body it pushes has this; otherwise it keeps none
-    /// (docs/method.md, "Skin": full-space bodies crushed with it).
+    /// (docs/method.md, "Skin"; mat-run sets it in every mode).
     bool contact_skin = false;
     /// The most the compliance of a contact between bodies may give along its normal beyond the
     /// skin, as a fraction of the smaller rest bounding-box diagonal (0: no cap); past it the
@@ -128,6 +128,11 @@ struct SolverOptions {
     /// self contacts raised the energy of a resting pile (docs/method.md, "Self contacts hold
     /// their planes in full space").
     bool self_planes_follow_iterate = true;
+    /// The step's contacts are found again at the iterate halfway through its iterations (the
+    /// Simulation does it in a step where every stepped body has this, on the CPU's plain
+    /// iteration, without hyper-reduced bodies; docs/method.md, "Contacts found again during
+    /// the step").
+    bool detect_in_step = false;
     Acceleration acceleration = Acceleration::none;
     int anderson_window = 5; ///< differences kept by Anderson acceleration, 1 .. 16
     Device device = Device::cpu;

@@ -37,6 +37,8 @@ enum class AngularMomentumMode { free, keep, integrator };
 /// The PD iteration within a step (SolverOptions::acceleration).
 enum class AccelerationMode { none, anderson };
 enum class DeviceMode { cpu, cuda };
+/// A choice that defaults by the solver mode ("auto") or is set for every mode.
+enum class ModeChoice { automatic, first, second };
 /// Collision between objects: medial bounds enlarged to enclose the deformed surface, moved
 /// only, or none (runtime/collision/collision_world.hpp).
 enum class CollisionMode { bounded, lazy, off };
@@ -59,16 +61,18 @@ struct SolverSettings {
     bool self_collision = true; ///< "on" or "off"
     bool edge_contacts = false; ///< "on" or "off": edge-edge contacts besides vertex-face
     bool compliance_preload = true; ///< "on" or "off" (SolverOptions::compliance_preload)
-    /// "iterate" or "step" (SolverOptions::planes_follow_iterate)
-    bool planes_follow_iterate = true;
-    /// "on" or "off": contacts found again at the iterate halfway through a step (not in a step
-    /// with a hyper-reduced object)
-    bool detect_in_step = false;
+    /// "auto" (step in full space, else iterate), "iterate" or "step"
+    /// (SolverOptions::planes_follow_iterate)
+    ModeChoice contact_normals = ModeChoice::automatic;
+    /// "auto" (on in full space, else off), "on" or "off": contacts found again at the iterate
+    /// halfway through a step (SolverOptions::detect_in_step; not in a step with a
+    /// hyper-reduced object)
+    ModeChoice detect_in_step = ModeChoice::automatic;
     /// "on" or "off": subspace steps in the contact solves (ContactSettings::subspace_every)
     bool contact_subspace = false;
     double collision_margin = 0.0; ///< relative to the largest bake's diagonal
-    /// The gap contacts between objects keep, relative to the collision margin (reduced
-    /// objects only: SolverOptions::contact_skin)
+    /// The gap contacts between objects keep, relative to the collision margin
+    /// (SolverOptions::contact_skin)
     double contact_skin = 0.0;
     /// The gap a self contact keeps, relative to the collision margin, in every mode (0: none;
     /// CollisionSettings::self_skin)

@@ -128,14 +128,20 @@ namespace {
         // beside the self skin (docs/method.md, "Compliance", "Preload in full space only").
         options.compliance_preload
             = scene.solver.compliance_preload && solver_kind == SolverKind::full;
-        options.planes_follow_iterate = scene.solver.planes_follow_iterate;
-        // Full-space bodies hold their self contacts' planes for the step: turning with the
-        // iterate beside the self skin, they raised a resting pile's energy (docs/method.md,
-        // "Self contacts hold their planes in full space").
-        options.self_planes_follow_iterate = solver_kind != SolverKind::full;
-        // Full-space bodies keep no skin: with it 2 of 20 creatures_collide runs crushed
-        // (docs/method.md, "Skin").
-        options.contact_skin = solver_kind != SolverKind::full;
+        // Full-space bodies hold their contacts' planes for the step, keep the skin and find
+        // their contacts again halfway through it: with planes that turn they kept intersecting
+        // triangles at rest, and their self contacts raised a resting pile's energy
+        // (docs/method.md, "Full space holds its planes", "Self contacts hold their planes in
+        // full space").
+        const bool full = solver_kind == SolverKind::full;
+        options.planes_follow_iterate = scene.solver.contact_normals == ModeChoice::automatic
+            ? !full
+            : scene.solver.contact_normals == ModeChoice::first;
+        options.self_planes_follow_iterate = !full;
+        options.detect_in_step = scene.solver.detect_in_step == ModeChoice::automatic
+            ? full
+            : scene.solver.detect_in_step == ModeChoice::first;
+        options.contact_skin = true;
         options.compliance_cap = scene.solver.compliance_cap;
         // Full-space bodies push a vertex that starts behind its own face out at a quarter of the
         // speed: at the full speed beside the self skin a pile's energy rose (docs/method.md,

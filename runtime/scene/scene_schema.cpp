@@ -288,21 +288,25 @@ namespace {
                          "rests at the surface instead of slightly inside it; only full-space "
                          "objects use it: reduced ones keep their skin off the surface instead "
                          "(docs/method.md, \"Compliance\", \"Preload in full space only\")"),
-            enum_key(S::solver, "contact_normals", &SolverSettings::planes_follow_iterate,
-                { "iterate", "step" })
-                .set_default("iterate")
+            enum_key(S::solver, "contact_normals", &SolverSettings::contact_normals,
+                { "auto", "iterate", "step" })
+                .set_default("auto")
                 .set_doc("a contact of a vertex against a face of a moving object takes the "
-                         "face's normal at each iteration's positions (iterate) or at the step's "
-                         "start (step); a full-space object's self contacts hold theirs "
-                         "either way (docs/method.md, \"Planes that follow the iterate\", "
-                         "\"Self contacts hold their planes in full space\")"),
-            enum_key(S::solver, "detect_in_step", &SolverSettings::detect_in_step, { "on", "off" })
-                .set_default("off")
-                .set_doc("the contacts between objects are found again at the iterate halfway "
-                         "through each step's iterations, besides at its start, so that a "
-                         "vertex pushed against another surface during the step gets a contact; "
-                         "not in steps with hyper-reduced objects, which crushed with it "
-                         "(docs/method.md, \"Contacts found again during the step\")"),
+                         "face's normal at each iteration's positions (iterate) or holds the "
+                         "step start's (step); auto: full-space objects hold theirs, reduced "
+                         "ones take the iterate's; a full-space object's self contacts hold "
+                         "theirs either way (docs/method.md, \"Planes that follow the "
+                         "iterate\", \"Full space holds its planes\")"),
+            enum_key(S::solver, "detect_in_step", &SolverSettings::detect_in_step,
+                { "auto", "on", "off" })
+                .set_default("auto")
+                .set_doc("the contacts are found again at the iterate halfway through each "
+                         "step's iterations, besides at its start, so that a vertex pushed "
+                         "against another surface during the step gets a contact (those of the "
+                         "start that are not found again stay); auto: on in full space, off "
+                         "otherwise; never in steps with hyper-reduced objects, which crushed "
+                         "with it (docs/method.md, \"Contacts found again during the step\", "
+                         "\"Full space holds its planes\")"),
             enum_key(
                 S::solver, "contact_subspace", &SolverSettings::contact_subspace, { "on", "off" })
                 .set_default("off")
@@ -322,8 +326,8 @@ namespace {
                 .at_most(0.5)
                 .set_doc("the gap a contact between objects keeps, fraction of the collision "
                          "margin: they rest that far apart instead of slightly inside each "
-                         "other, where triangles stayed crossed; full-space objects never use it "
-                         "(docs/method.md, \"Skin\")"),
+                         "other, where triangles stayed crossed; in every mode (docs/method.md, "
+                         "\"Skin\", \"Full space holds its planes\")"),
             value_key(S::solver, "self_skin", T::number, &SolverSettings::self_skin)
                 .set_default(0.5)
                 .at_least(0)
