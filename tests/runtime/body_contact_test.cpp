@@ -268,8 +268,10 @@ namespace {
     // diagonal beyond the skin; docs/method.md, "Compliance cap"), no vertex sinks more than
     // 0.5% of the capsule's diagonal (3.83 mm) in any mode. Measured here (the exhaustive check
     // of --check-collisions, x86-64-v3 build), the deepest vertex penetration during the impact
-    // at 12 / 30 m/s: semi 3.06 / 3.07 mm, full 3.07 / 3.17, hyper 3.06 / 3.07; without the cap
-    // semi 6.52 / 6.76, full 3.17 / 6.54, hyper 6.50 / 7.20, so this fails without it.
+    // at 12 / 30 m/s: semi 3.06 / 3.07 mm, full 0.18 / 1.32 (3.07 / 3.17 before full space held
+    // its planes, docs/method.md, "Full space holds its planes"), hyper 3.06 / 3.07; without the
+    // cap semi 6.52 / 6.76, full (then) 3.17 / 6.54, hyper 6.50 / 7.20, so the reduced modes
+    // fail without it.
     TEST_P(ContactTunnelTest, ProjectileIsStoppedByThePlate)
     {
         const TunnelParam& p = GetParam();
