@@ -14,6 +14,7 @@
 #         of intersecting triangle pairs between non-adjacent primitives (section 4).
 #   tests/bench/self_collision_meshes.sh [BUILD_DIR] [THREADS] [MESH...]
 #   SOLVER_EXTRA='"self_skin": 0' tests/bench/...   more keys for every scene's "solver" block
+#   RUN_ARGS="--solver full" tests/bench/...         more mat-run arguments for every run
 # Material: density 1000 kg/m^3, Poisson ratio 0.4, Young's modulus YOUNGS_PER_METRE (default 5e5)
 # Pa times the diagonal in metres, so that the sag under gravity (rho g L / E, 0.02 by default) is
 # the same at any size; dt = 1/30 s, 10 iterations.
@@ -112,10 +113,10 @@ for mesh in "${meshes[@]}"; do
     scene "$dir/rest.json" "$h5" 0 0 on off "$youngs"
     scene "$dir/drop_off.json" "$h5" -9.81 "$height" off on "$youngs"
     scene "$dir/drop_on.json" "$h5" -9.81 "$height" on on "$youngs"
-    "$run" "$dir/rest.json" --threads "$threads" --stats "$dir/rest.stats.json" -o "$dir/rest" > "$dir/rest.log" 2>&1
-    "$run" "$dir/drop_off.json" --threads "$threads" --stats "$dir/off.stats.json" -o "$dir/off" > "$dir/off.log" 2>&1
-    "$run" "$dir/drop_on.json" --threads "$threads" --stats "$dir/on.stats.json" -o "$dir/on" > "$dir/on.log" 2>&1
-    "$run" "$dir/drop_on.json" --threads "$threads" --frames 10 --check-collisions -o "$dir/check" > "$dir/check.log" 2>&1
+    "$run" "$dir/rest.json" --threads "$threads" ${RUN_ARGS:-} --stats "$dir/rest.stats.json" -o "$dir/rest" > "$dir/rest.log" 2>&1
+    "$run" "$dir/drop_off.json" --threads "$threads" ${RUN_ARGS:-} --stats "$dir/off.stats.json" -o "$dir/off" > "$dir/off.log" 2>&1
+    "$run" "$dir/drop_on.json" --threads "$threads" ${RUN_ARGS:-} --stats "$dir/on.stats.json" -o "$dir/on" > "$dir/on.log" 2>&1
+    "$run" "$dir/drop_on.json" --threads "$threads" ${RUN_ARGS:-} --frames 10 --check-collisions -o "$dir/check" > "$dir/check.log" 2>&1
     tets=$(awk '/nodes,.*tets/ { for (i = 1; i <= NF; ++i) if ($i ~ /^tets/) print $(i - 1) }' "$dir/rest.log" | head -1)
     read -r rest_max rest_energy < <(frame_rows "$dir/rest.stats.frames.jsonl" \
         | awk '{ if ($1 > c) c = $1; if ($2 > e) e = $2 } END { print c + 0, e + 0 }')
