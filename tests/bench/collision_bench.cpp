@@ -7,8 +7,9 @@
 // triangle-only broad phase (CGAL box_intersection_d over every triangle, one thread).
 // The bounded pipeline is timed again without the triangle pairs ("contacts only": what a step of
 // mat-run computes unless --check-collisions or --stats asks for them; its "missed" column counts
-// every pair of the truth). Prints wall ms per phase, process CPU ms per call (all threads), the ratios, and how many of
-// the ground truth's intersecting triangle pairs (between the first two bodies) each misses.
+// every pair of the truth). Prints wall ms per phase, process CPU ms per call (all threads), the
+// ratios, and how many of the ground truth's intersecting triangle pairs (between the first two
+// bodies) each misses.
 
 #include <algorithm>
 #include <cstdio>
