@@ -37,8 +37,9 @@ enum class AngularMomentumMode { free, keep, integrator };
 /// The PD iteration within a step (SolverOptions::acceleration).
 enum class AccelerationMode { none, anderson };
 enum class DeviceMode { cpu, cuda };
-/// A choice that defaults by the solver mode ("auto") or is set for every mode.
-enum class ModeChoice { automatic, first, second };
+/// A choice that defaults by the solver mode ("auto") or is set for every mode: enabled (the
+/// key's second choice: "iterate", "on") or disabled (its third: "step", "off").
+enum class ModeChoice { automatic, enabled, disabled };
 /// Collision between objects: medial bounds enlarged to enclose the deformed surface, moved
 /// only, or none (runtime/collision/collision_world.hpp).
 enum class CollisionMode { bounded, lazy, off };

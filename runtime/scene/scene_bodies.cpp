@@ -136,11 +136,11 @@ namespace {
         const bool full = solver_kind == SolverKind::full;
         options.planes_follow_iterate = scene.solver.contact_normals == ModeChoice::automatic
             ? !full
-            : scene.solver.contact_normals == ModeChoice::first;
+            : scene.solver.contact_normals == ModeChoice::enabled;
         options.self_planes_follow_iterate = !full;
         options.detect_in_step = scene.solver.detect_in_step == ModeChoice::automatic
             ? full
-            : scene.solver.detect_in_step == ModeChoice::first;
+            : scene.solver.detect_in_step == ModeChoice::enabled;
         options.contact_skin = true;
         options.compliance_cap = scene.solver.compliance_cap;
         // Full-space bodies push a vertex that starts behind its own face out at a quarter of the

@@ -1030,6 +1030,47 @@ namespace {
             EXPECT_LE(run.highest_energy, run.start_energy * (1.0 + 1e-9));
     }
 
+    // Full space holds its planes (docs/method.md, "Full space holds its planes"): with
+    // solver.contact_normals and solver.detect_in_step at "auto" (their defaults), a full-space
+    // body holds its contacts' planes for the step, keeps the skin and has its contacts found
+    // again halfway through the step; reduced bodies turn their planes and keep the step start's
+    // contacts; the explicit choices set every mode alike. (What the full-space defaults do on
+    // the samples is CollisionSampleTest's "_full" cases.)
+    class FullSpacePlanesTest : public test::ScratchDirTest { };
+
+    TEST_F(FullSpacePlanesTest, AutoChoosesByModeAndExplicitChoicesSetEveryMode)
+    {
+        write_bake(path("capsule.h5"), test::sample_bake("capsule", 0.1));
+        const auto options = [&](const std::string& keys, SolverKind kind) {
+            const std::string text = fmt::format(R"({{
+  "time": {{ "dt": 0.0333333333, "frames": 1, "iterations": 10 }},
+  "solver": {{ "collision": "bounded"{} }},
+  "objects": [ {{ "name": "a", "bake": "capsule.h5" }},
+               {{ "name": "b", "bake": "capsule.h5", "position": [0, 1, 0] }} ]
+}})",
+                keys);
+            const Scene scene = read_scene(write_text("scene.json", text));
+            return load_bodies(scene, kind).at(0).solver->options();
+        };
+        for (const SolverKind kind :
+            { SolverKind::full, SolverKind::semi_reduced, SolverKind::hyper_reduced }) {
+            const bool full = kind == SolverKind::full;
+            const SolverOptions automatic = options("", kind);
+            EXPECT_EQ(automatic.planes_follow_iterate, !full);
+            EXPECT_EQ(automatic.detect_in_step, full);
+            EXPECT_TRUE(automatic.contact_skin);
+            EXPECT_EQ(automatic.self_planes_follow_iterate, !full);
+            const SolverOptions turning
+                = options(R"(, "contact_normals": "iterate", "detect_in_step": "off")", kind);
+            EXPECT_TRUE(turning.planes_follow_iterate);
+            EXPECT_FALSE(turning.detect_in_step);
+            const SolverOptions held
+                = options(R"(, "contact_normals": "step", "detect_in_step": "on")", kind);
+            EXPECT_FALSE(held.planes_follow_iterate);
+            EXPECT_TRUE(held.detect_in_step);
+        }
+    }
+
     // Self contacts hold their planes in full space (docs/method.md, "Self contacts hold their
     // planes in full space"): drop_on_pile with every friction times 1.05, full space. When a
     // full-space body's self contacts turned their planes with the iterate beside the self skin,
