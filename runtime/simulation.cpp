@@ -296,7 +296,7 @@ void Simulation::detect_in_step(
     m_step_contacts.append_missing(m_start_contacts, m_contact_ids);
     Timer timer;
     m_contact_stage->end_step();
-    m_contact_stage->begin_step(views, m_step_contacts, found);
+    m_contact_stage->begin_step(views, m_step_contacts, true, found);
     const double share = timer.seconds() / static_cast<double>(m_stepped.size());
     for (const std::size_t b : m_stepped)
         m_bodies[b].solver->add_contact_seconds(share);

@@ -282,10 +282,9 @@ void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>&
     }
 }
 
-void ContactStage::begin_step(
-    const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts, Index at_iterate)
+void ContactStage::begin_step(const std::vector<ContactBodyState>& bodies,
+    const BodyContacts& contacts, bool again, Index at_iterate)
 {
-    m_at_iterate = at_iterate > 0;
     MAT_CHECK(bodies.size() == m_data.size(), "contact stage: {} bodies for {}", bodies.size(),
         m_data.size());
     m_records.clear();
@@ -304,7 +303,7 @@ void ContactStage::begin_step(
         if (bodies[b].solver == nullptr)
             continue;
         init_body(static_cast<int>(b), *bodies[b].solver);
-        if (m_at_iterate)
+        if (again)
             m_data[b].detected = bodies[b].solver->step_positions();
         const ContactSettings& settings = bodies[b].solver->options().contact;
         m_settings.max_sweeps = first_solver ? settings.max_sweeps
@@ -384,7 +383,7 @@ void ContactStage::begin_step(
         }
         data.used.clear();
     }
-    if (!at_iterate)
+    if (!again)
         m_sweeps = 0; // a step's sweeps count over both of its contact sets
 }
 

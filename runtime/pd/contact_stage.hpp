@@ -145,12 +145,12 @@ public:
     /// within its contact margin of a plane of its solver at the start of the step or at the
     /// inertia target) and `contacts`, then each body's responses and the warm start (the last
     /// step's force of the same ground pair, or of a contact at the same first node).
-    /// `at_iterate`: the first at_iterate of `contacts` were found at an iterate during the step
-    /// (the two points of such a contact are a closest pair there, not at the step start: their
-    /// impulses' moments are taken at that iterate, see end_step()), the rest at its start; with
-    /// any, the step's sweeps keep counting.
+    /// `again`: the stage begins again during the step (its sweeps keep counting), and the
+    /// first `at_iterate` of `contacts` were found at the iterate (the two points of such a
+    /// contact are a closest pair there, not at the step start: their impulses' moments are taken
+    /// at that iterate, see end_step()), the rest at the step's start.
     void begin_step(const std::vector<ContactBodyState>& bodies, const BodyContacts& contacts,
-        Index at_iterate = 0);
+        bool again = false, Index at_iterate = 0);
     /// After every stepped body's global solve of one iteration: solves the forces and adds
     /// their displacements to the bodies' global steps. `last`: the step's last iteration
     /// (before it, a solve with body contacts stops after ContactSettings::early_sweeps).
@@ -240,8 +240,9 @@ private:
         /// from them, and its sides have no direction.
         MatX3 displaced;
         MatX3 displacement; ///< response size x 3: its sides' responses times their forces
-        /// The node positions at the iterate the step's contacts were found at (begin_step's
-        /// `at_iterate`): where their impulses' moments are taken (end_step()).
+        /// The node positions at the iterate where the stage began again (begin_step's
+        /// `again`): where the impulses' moments of the contacts found there are taken
+        /// (end_step()).
         MatX3 detected;
         /// The displacement is that of the current forces over all rows (a nodal body's,
         /// from the end of the last solve): the next displace() need not sum it again.
@@ -390,7 +391,6 @@ private:
     ContactSettings m_settings;
     int m_sweeps = 0;
     long m_turn_stamp = 0; ///< turn_planes() calls so far
-    bool m_at_iterate = false; ///< begin_step's at_iterate > 0
     Index m_body_contacts = 0; ///< this step's contacts between bodies (after the ground's)
     std::vector<int> m_island_root; ///< mark_world_held's union-find, per body
     std::vector<char> m_island_held; ///< mark_world_held's, per island root
