@@ -253,7 +253,7 @@ void BodyContacts::append_missing(const BodyContacts& other, std::vector<std::ui
 
 // A plane of a vertex against a face of a stepped body whose solver has planes_follow_iterate
 // (and, for a self contact, self_planes_follow_iterate) keeps the face's corners (docs/method.md,
-// "Planes that follow the iterate", "Self contacts hold their planes in full space").
+// "Planes that follow the iterate", "Self contacts hold their planes").
 void ContactStage::add_face(Record& record, const std::vector<ContactBodyState>& bodies,
     const BodyContacts& contacts, Index c)
 {

@@ -124,9 +124,9 @@ struct SolverOptions {
     /// "Planes that follow the iterate").
     bool planes_follow_iterate = true;
     /// The same for a self contact of this body (with planes_follow_iterate): false holds its
-    /// face's plane for the step. Full-space bodies hold them: with planes that turn, their
-    /// self contacts raised the energy of a resting pile (docs/method.md, "Self contacts hold
-    /// their planes in full space").
+    /// face's plane for the step. Full-space and semi-reduced bodies hold them: with planes that
+    /// turn, their self contacts raised the energy of a resting pile (full space) and crushed a
+    /// run at 30 iterations (semi-reduced; docs/method.md, "Self contacts hold their planes").
     bool self_planes_follow_iterate = true;
     /// The step's contacts are found again at the iterate halfway through its iterations (the
     /// Simulation does it in a step where every stepped body has this, on the CPU's plain

@@ -131,13 +131,16 @@ namespace {
         // Full-space bodies hold their contacts' planes for the step, keep the skin and find
         // their contacts again halfway through it: with planes that turn they kept intersecting
         // triangles at rest, and their self contacts raised a resting pile's energy
-        // (docs/method.md, "Full space holds its planes", "Self contacts hold their planes in
-        // full space").
+        // (docs/method.md, "Full space holds its planes", "Self contacts hold their planes").
         const bool full = solver_kind == SolverKind::full;
         options.planes_follow_iterate = scene.solver.contact_normals == ModeChoice::automatic
             ? !full
             : scene.solver.contact_normals == ModeChoice::enabled;
-        options.self_planes_follow_iterate = !full;
+        // Self contacts hold their face's plane for the step but on hyper-reduced bodies: with
+        // planes that turn, a full-space pile's energy rose, and a semi-reduced run raised to 30
+        // iterations or more crushed with its energy rising (docs/method.md, "Self contacts hold
+        // their planes"); hyper-reduced bodies kept intersecting triangles at rest with them held.
+        options.self_planes_follow_iterate = solver_kind == SolverKind::hyper_reduced;
         options.detect_in_step = scene.solver.detect_in_step == ModeChoice::automatic
             ? full
             : scene.solver.detect_in_step == ModeChoice::enabled;

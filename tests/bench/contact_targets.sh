@@ -21,6 +21,7 @@
 #   MODES="semi full" SCENES="creatures_collide" tests/bench/contact_targets.sh ...
 #   SOLVER='{"contact_skin": 0.25}' tests/bench/contact_targets.sh ...   keys merged into every
 #                                                     scene's "solver" block
+#   MATERIAL='{"strain_limits": [0.2, 1.8]}' ...      keys merged into every object's "material"
 # A run with 1 thread gives the same figures as with more (the solvers are deterministic for
 # any thread count); each takes seconds to a minute (the check is exhaustive).
 set -euo pipefail
@@ -50,7 +51,7 @@ scene_file() { # scene_file NAME
 # The scene with its bakes' paths made absolute and every friction times 1 + 0.01 k; prints the
 # bakes, one per line.
 prepare() { # prepare SCENE_FILE K OUT
-    python3 - "$1" "$2" "$3" "${SOLVER:-{\}}" <<'PY'
+    python3 - "$1" "$2" "$3" "${SOLVER:-{\}}" "${MATERIAL:-{\}}" <<'PY'
 import json, os, sys
 path, k, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 scene = json.load(open(path))
@@ -67,6 +68,7 @@ for collider in scene.get("colliders", []):
         collider["friction"] *= factor
 for obj in scene["objects"]:
     obj["bake"] = os.path.normpath(os.path.join(here, obj["bake"]))
+    obj.setdefault("material", {}).update(json.loads(sys.argv[5]))
     print(obj["bake"])
 scene.pop("output", None)
 json.dump(scene, open(out, "w"))
