@@ -294,9 +294,10 @@ namespace {
                 .set_doc("a contact of a vertex against a face of a moving object takes the "
                          "face's normal at each iteration's positions (iterate) or holds the "
                          "step start's (step); auto: full-space objects hold theirs, reduced "
-                         "ones take the iterate's; a full-space object's self contacts hold "
-                         "theirs either way (docs/method.md, \"Planes that follow the "
-                         "iterate\", \"Full space holds its planes\")"),
+                         "ones take the iterate's; a full-space or semi-reduced object's self "
+                         "contacts hold theirs either way (docs/method.md, \"Planes that follow "
+                         "the iterate\", \"Full space holds its planes\", \"Self contacts "
+                         "hold their planes\")"),
             enum_key(S::solver, "detect_in_step", &SolverSettings::detect_in_step,
                 { "auto", "on", "off" })
                 .set_default("auto")
